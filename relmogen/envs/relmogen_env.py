@@ -1,0 +1,168 @@
+"""The Gymnasium environment: one task, one robot, one scene, one control.
+
+``gymnasium.make("relmogen/PointNav-v0", control="joint")`` builds the world once; episodes
+re-randomise poses in place. The control decides what one ``step`` means: 0.1 s of joint
+velocities (``joint``) or one executed subgoal (``subgoal-r``, ``subgoal-d``).
+
+Observation (a ``Dict`` that Stable-Baselines3's ``MultiInputPolicy`` accepts as is):
+    rgb       (H, W, 3) uint8 head-camera colour image
+    depth     (H, W, 1) float32 metres along the optical axis, 0.0 = no return
+              (nearer than 0.35 m or farther than 3.0 m)
+    scan      (220,)    float32 LiDAR ranges divided by the maximum range (1.0 = no hit)
+    task_obs  (D,)      float32 task vector (55-D for navigation tasks), robot frame
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from relmogen.envs.controls import make_control
+from relmogen.robots.robot import Robot
+from relmogen.robots.spec import load_spec
+from relmogen.scenes import available_scenes, make_scene
+from relmogen.simulation.contacts import robot_collisions
+from relmogen.simulation.sensors import Camera, Lidar
+from relmogen.simulation.world import World
+from relmogen.tasks import TaskContext, task_class
+
+CONTROL_DT = 0.1  # seconds per joint-velocity action (paper Section IV-B)
+THIRD_PERSON_SIZE = (320, 240)
+
+
+class RelmogenEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        task: str = "PointNav",
+        control: str = "joint",
+        robot: str = "fetch",
+        scene: str | None = None,
+        image_size: int = 128,
+        render_mode: str | None = None,
+        scene_seed: int = 0,
+        **control_options: Any,
+    ):
+        task_cls = task_class(task)
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
+        if int(image_size) < 16:
+            raise ValueError(f"image_size must be at least 16 pixels, got {image_size}")
+        scene = scene or f"{task_cls.scene_kind}_A"
+        if not scene.startswith(task_cls.scene_kind):
+            valid = [s for s in available_scenes() if s.startswith(task_cls.scene_kind)]
+            raise ValueError(f"task {task} needs a {task_cls.scene_kind} scene; valid: {', '.join(valid)}")
+        self.render_mode = render_mode
+        self.world = World()
+        self.scene = make_scene(scene, self.world.client, seed=scene_seed)
+        self.robot = Robot(self.world.client, load_spec(robot))
+        self.task = task_cls(TaskContext(self.world, self.scene, self.robot))
+        self.task.load()
+        self.camera = Camera(self.world.client, image_size, image_size, fov_deg=90.0)
+        lidar = self.robot.spec.lidar
+        self.lidar = Lidar(self.world.client, lidar.num_rays, lidar.fov_deg, lidar.max_range, lidar.min_range)
+        self.control_steps_per_action = int(round(CONTROL_DT / self.world.time_step))
+        self._collision_args = self._collision_filter()
+        self.control = make_control(control, self, **control_options)
+        self.action_space = self.control.action_space
+        self.observation_space = self._observation_space(image_size)
+        self.elapsed_steps = 0
+        self.sim_time = 0.0
+        self.last_frame = None
+
+    # ------------------------------------------------------------------ gymnasium API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.task.reset(self.np_random)
+        self.task.after_reset()
+        self.control.reset()
+        self.elapsed_steps, self.sim_time, self.episode_return = 0, 0.0, 0.0
+        return self._observe(), {}
+
+    def step(self, action):
+        outcome = self.control.step(action)
+        self.elapsed_steps += 1
+        self.episode_return += outcome.reward
+        terminated = outcome.termination is not None
+        truncated = not terminated and self.elapsed_steps >= self.control.episode_steps
+        info = dict(outcome.info, termination=outcome.termination, reward_terms=outcome.reward_terms)
+        if terminated or truncated:
+            metrics = self.task.metrics()
+            info.update(metrics=metrics, is_success=bool(metrics["success"]))
+        return self._observe(), outcome.reward, terminated, truncated, info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        return self.third_person_image()
+
+    def close(self):
+        if getattr(self, "world", None) is not None:
+            self.world.close()
+            self.world = None
+
+    # ---------------------------------------------------------------- low-level pieces
+    def simulate_control_step(self) -> tuple[float, dict[str, float], str | None]:
+        """Advance 0.1 s with whatever motor commands are set; returns the task reward, its
+        terms, and a termination cause ('success' or 'collision') or None."""
+        self.world.step(self.control_steps_per_action)
+        self.sim_time += CONTROL_DT
+        self.task.after_control_step()
+        reward, terms = self.task.reward()
+        return reward, terms, self.termination_cause()
+
+    def termination_cause(self) -> str | None:
+        if self.task.terminates_on_success() and self.task.is_success():
+            return "success"
+        if self.collisions():
+            return "collision"
+        return None
+
+    def collisions(self):
+        return robot_collisions(self.world.client, self.robot.robot_id, **self._collision_args)
+
+    def third_person_image(self) -> np.ndarray:
+        from relmogen.visualisation.views import third_person_view
+
+        return third_person_view(self.world.client, self.robot.base_pose(), *THIRD_PERSON_SIZE)
+
+    # ------------------------------------------------------------------- observations
+    def _observe(self) -> dict[str, np.ndarray]:
+        position, rotation = self.robot.camera_pose()
+        frame = self.camera.capture(position, rotation)
+        self.last_frame = frame
+        obs = {
+            "rgb": frame.rgb,
+            "depth": frame.depth[..., None],
+            "scan": self.scan() / np.float32(self.lidar.max_range),
+            "task_obs": self.task.task_obs(),
+        }
+        obs.update(self.control.extra_observation())
+        return obs
+
+    def scan(self) -> np.ndarray:
+        position, _ = self.robot.lidar_pose()
+        return self.lidar.scan(np.asarray(position), self.robot.base_pose()[2])
+
+    def _observation_space(self, size: int) -> spaces.Dict:
+        obs = {
+            "rgb": spaces.Box(0, 255, (size, size, 3), np.uint8),
+            "depth": spaces.Box(0.0, self.camera.max_depth, (size, size, 1), np.float32),
+            "scan": spaces.Box(0.0, 1.0, (self.lidar.num_rays,), np.float32),
+            "task_obs": spaces.Box(-np.inf, np.inf, (self.task.task_obs_dim,), np.float32),
+        }
+        obs.update(self.control.extra_observation_space())
+        return spaces.Dict(obs)
+
+    def _collision_filter(self) -> dict:
+        robot = self.robot
+        return dict(
+            link_names=robot.link_names,
+            allowed_links=frozenset(robot.gripper_link_indices),
+            floor_contact_links=frozenset(robot.floor_contact_link_indices),
+            floor_body=self.scene.floor_body_id,
+        )

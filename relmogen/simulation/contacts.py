@@ -1,0 +1,39 @@
+"""Contact queries: which robot links touch the environment."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pybullet as p
+
+
+@dataclass(frozen=True)
+class Collision:
+    robot_link: str
+    other_body: int
+    other_link: int
+
+    def describe(self, client: int) -> str:
+        name = p.getBodyInfo(self.other_body, physicsClientId=client)[1].decode() or f"body {self.other_body}"
+        return f"robot link {self.robot_link!r} touched {name!r} (link {self.other_link})"
+
+
+def robot_collisions(
+    client: int,
+    robot_id: int,
+    link_names: dict[int, str],
+    allowed_links: frozenset[int],
+    floor_contact_links: frozenset[int],
+    floor_body: int | None,
+) -> list[Collision]:
+    """Contacts of the robot with anything else, except the gripper (``allowed_links``) and
+    the wheels/casters resting on the floor (``floor_contact_links`` against ``floor_body``)."""
+    result = []
+    for contact in p.getContactPoints(bodyA=robot_id, physicsClientId=client):
+        other, robot_link, other_link = contact[2], contact[3], contact[4]
+        if other == robot_id or robot_link in allowed_links:
+            continue
+        if other == floor_body and robot_link in floor_contact_links:
+            continue
+        result.append(Collision(link_names.get(robot_link, str(robot_link)), other, other_link))
+    return result

@@ -1,0 +1,112 @@
+"""Local occupancy map built from one LiDAR scan.
+
+The map is a square window centred on the robot and aligned with the robot's base frame.
+Cell ``[i, j]`` covers the point ``x = (i + 0.5) * res - half``, ``y = (j + 0.5) * res - half``
+in the robot frame (``x`` forward, ``y`` left). Cell values (uint8, so the map can be fed to a
+CNN as an image):
+
+* ``FREE = 0``       seen free by a ray, or under the robot's own footprint
+* ``UNKNOWN = 128``  not observed (behind the LiDAR's field of view, or behind a hit)
+* ``OCCUPIED = 255`` a ray ended here
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+FREE = np.uint8(0)
+UNKNOWN = np.uint8(128)
+OCCUPIED = np.uint8(255)
+
+
+@dataclass(frozen=True)
+class LocalMap:
+    """An occupancy grid in the robot frame at the moment of the scan."""
+
+    grid: np.ndarray  # (N, N) uint8 with FREE / UNKNOWN / OCCUPIED
+    resolution: float  # metres per cell
+    robot_pose: tuple[float, float, float]  # world (x, y, yaw) of the robot when scanned
+
+    @property
+    def size(self) -> int:
+        return self.grid.shape[0]
+
+    @property
+    def half_extent(self) -> float:
+        return 0.5 * self.size * self.resolution
+
+    def point_to_cell(self, xy_robot: np.ndarray) -> np.ndarray:
+        """Robot-frame points (..., 2) to integer cells (..., 2); may fall outside the grid."""
+        return np.floor((np.asarray(xy_robot) + self.half_extent) / self.resolution).astype(np.int64)
+
+    def cell_to_point(self, cells: np.ndarray) -> np.ndarray:
+        """Integer cells (..., 2) to robot-frame cell centres (..., 2)."""
+        return (np.asarray(cells) + 0.5) * self.resolution - self.half_extent
+
+    def contains(self, xy_robot: np.ndarray) -> np.ndarray:
+        cells = self.point_to_cell(xy_robot)
+        return np.all((cells >= 0) & (cells < self.size), axis=-1)
+
+    def world_to_robot(self, xy_world: np.ndarray) -> np.ndarray:
+        x0, y0, yaw = self.robot_pose
+        d = np.asarray(xy_world, dtype=np.float64) - (x0, y0)
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
+
+    def robot_to_world(self, xy_robot: np.ndarray) -> np.ndarray:
+        x0, y0, yaw = self.robot_pose
+        p = np.asarray(xy_robot, dtype=np.float64)
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.stack([x0 + c * p[..., 0] - s * p[..., 1], y0 + s * p[..., 0] + c * p[..., 1]], axis=-1)
+
+
+def build_local_map(
+    ranges: np.ndarray,
+    angles: np.ndarray,
+    lidar_xy: tuple[float, float],
+    max_range: float,
+    robot_pose: tuple[float, float, float],
+    footprint_radius: float,
+    size_m: float = 5.0,
+    resolution: float = 0.05,
+) -> LocalMap:
+    """Rasterise a scan into a LocalMap.
+
+    ``ranges`` are metres along ``angles`` (radians, robot frame) from the LiDAR at ``lidar_xy``
+    (robot frame). A range of ``max_range`` or more means the ray hit nothing: the whole ray
+    is free (so an empty room is free space, not unknown).
+    """
+    n = int(round(size_m / resolution))
+    grid = np.full((n, n), UNKNOWN, dtype=np.uint8)
+    half = 0.5 * n * resolution
+    ranges = np.minimum(np.asarray(ranges, dtype=np.float64), max_range)
+    # The window's corner is at most half*sqrt(2) from the robot; no need to march further.
+    reach = min(max_range, half * np.sqrt(2.0) + np.hypot(*lidar_xy))
+    steps = np.arange(0.0, reach, 0.5 * resolution)
+    dirs = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    along = np.minimum(steps[None, :], ranges[:, None])
+    pts = np.asarray(lidar_xy) + along[..., None] * dirs[:, None, :]
+    free_mask = steps[None, :] < ranges[:, None]
+    _mark(grid, pts[free_mask], resolution, half, FREE)
+    hits = ranges < max_range
+    hit_pts = np.asarray(lidar_xy) + ranges[hits, None] * dirs[hits]
+    _mark(grid, hit_pts, resolution, half, OCCUPIED)
+    _mark_disc_free(grid, footprint_radius, resolution, half)
+    return LocalMap(grid=grid, resolution=resolution, robot_pose=tuple(float(v) for v in robot_pose))
+
+
+def _mark(grid: np.ndarray, pts: np.ndarray, resolution: float, half: float, value: np.uint8) -> None:
+    cells = np.floor((pts + half) / resolution).astype(np.int64)
+    n = grid.shape[0]
+    inside = np.all((cells >= 0) & (cells < n), axis=-1)
+    cells = cells[inside]
+    grid[cells[:, 0], cells[:, 1]] = value
+
+
+def _mark_disc_free(grid: np.ndarray, radius: float, resolution: float, half: float) -> None:
+    n = grid.shape[0]
+    centres = (np.arange(n) + 0.5) * resolution - half
+    inside = centres[:, None] ** 2 + centres[None, :] ** 2 <= radius**2
+    grid[inside] = FREE

@@ -1,0 +1,144 @@
+"""RGB-D camera and planar LiDAR on PyBullet's CPU renderer and batched ray tests.
+
+Camera conventions
+    The camera link looks along its +x axis with +z up (URDF convention). Images are
+    row-major ``(H, W)``; pixel ``(u, v)`` is column ``u``, row ``v``. Depth is the distance
+    along the optical axis in metres (float32). Pixels nearer than ``min_depth`` or farther
+    than ``max_depth`` have no valid return and read ``0.0`` (as real RGB-D sensors report
+    them); ``CameraIntrinsics.deproject`` refuses them.
+
+LiDAR conventions
+    ``num_rays`` rays evenly spread over ``fov`` centred on the LiDAR link's +x axis, in the
+    horizontal plane of the robot base. Ranges are metres, clipped to ``max_range``; a ray
+    that hits nothing reads ``max_range``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+INVALID_DEPTH = 0.0
+_NEAR_PLANE = 0.05
+_FAR_PLANE = 10.0
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """Pinhole model of a square-pixel camera; ``fx = fy``, principal point at the centre."""
+
+    width: int
+    height: int
+    fov_deg: float  # vertical field of view
+
+    @property
+    def fy(self) -> float:
+        return 0.5 * self.height / np.tan(np.deg2rad(self.fov_deg) / 2.0)
+
+    @property
+    def fx(self) -> float:
+        return self.fy
+
+    @property
+    def cx(self) -> float:
+        return 0.5 * self.width
+
+    @property
+    def cy(self) -> float:
+        return 0.5 * self.height
+
+    @property
+    def matrix(self) -> np.ndarray:
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def deproject(self, u: float, v: float, depth: float) -> np.ndarray:
+        """Pixel centre ``(u, v)`` at optical depth ``depth`` -> point in the camera link frame."""
+        if not np.isfinite(depth) or depth <= INVALID_DEPTH:
+            raise ValueError(f"pixel ({u}, {v}) has no valid depth ({depth})")
+        right = (u + 0.5 - self.cx) / self.fx * depth
+        down = (v + 0.5 - self.cy) / self.fy * depth
+        return np.array([depth, -right, -down])
+
+    def project(self, point_camera: np.ndarray) -> tuple[float, float, float]:
+        """Point in the camera link frame -> continuous pixel ``(u, v)`` and depth."""
+        forward, left, up = np.asarray(point_camera, dtype=np.float64)
+        u = self.cx + (-left / forward) * self.fx - 0.5
+        v = self.cy + (-up / forward) * self.fy - 0.5
+        return float(u), float(v), float(forward)
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    rgb: np.ndarray  # (H, W, 3) uint8
+    depth: np.ndarray  # (H, W) float32 metres, INVALID_DEPTH where out of range
+    position: np.ndarray  # camera origin in the world
+    rotation: np.ndarray  # 3x3 camera link -> world
+
+
+class Camera:
+    """Renders RGB-D images from a pose with PyBullet's TinyRenderer (CPU, no GL)."""
+
+    def __init__(self, client: int, width: int = 128, height: int = 128, fov_deg: float = 90.0,
+                 min_depth: float = 0.35, max_depth: float = 3.0):
+        if width <= 0 or height <= 0:
+            raise ValueError(f"camera resolution must be positive, got {width}x{height}")
+        self.client = client
+        self.intrinsics = CameraIntrinsics(width, height, fov_deg)
+        self.min_depth, self.max_depth = min_depth, max_depth
+        self._projection = p.computeProjectionMatrixFOV(
+            fov=fov_deg, aspect=width / height, nearVal=_NEAR_PLANE, farVal=_FAR_PLANE
+        )
+
+    def capture(self, position: np.ndarray, rotation: np.ndarray) -> CameraFrame:
+        forward, up = rotation[:, 0], rotation[:, 2]
+        view = p.computeViewMatrix(position, position + forward, up)
+        _, _, rgba, zbuffer, _ = p.getCameraImage(
+            self.intrinsics.width, self.intrinsics.height, view, self._projection,
+            renderer=p.ER_TINY_RENDERER, flags=p.ER_NO_SEGMENTATION_MASK,
+            physicsClientId=self.client,
+        )
+        rgba = np.asarray(rgba, dtype=np.uint8).reshape(self.intrinsics.height, self.intrinsics.width, 4)
+        depth = self._linearise(np.asarray(zbuffer, dtype=np.float32))
+        return CameraFrame(rgba[..., :3], depth, np.asarray(position), np.asarray(rotation))
+
+    def _linearise(self, zbuffer: np.ndarray) -> np.ndarray:
+        depth = _FAR_PLANE * _NEAR_PLANE / (_FAR_PLANE - (_FAR_PLANE - _NEAR_PLANE) * zbuffer)
+        depth = depth.reshape(self.intrinsics.height, self.intrinsics.width).astype(np.float32)
+        depth[(depth < self.min_depth) | (depth > self.max_depth)] = INVALID_DEPTH
+        return depth
+
+    def pixel_to_world(self, frame: CameraFrame, u: int, v: int) -> np.ndarray:
+        """The world point seen at pixel ``(u, v)`` of ``frame``; ValueError if it has no depth."""
+        h, w = frame.depth.shape
+        if not (0 <= u < w and 0 <= v < h):
+            raise ValueError(f"pixel ({u}, {v}) outside the {w}x{h} image")
+        local = self.intrinsics.deproject(u, v, float(frame.depth[v, u]))
+        return frame.position + frame.rotation @ local
+
+
+class Lidar:
+    """A single-plane scanner evaluated with one ``rayTestBatch`` call."""
+
+    def __init__(self, client: int, num_rays: int = 220, fov_deg: float = 220.0,
+                 max_range: float = 25.0, min_range: float = 0.05):
+        if num_rays < 2:
+            raise ValueError(f"a LiDAR needs at least 2 rays, got {num_rays}")
+        self.client = client
+        self.num_rays, self.max_range, self.min_range = num_rays, max_range, min_range
+        half = np.deg2rad(fov_deg) / 2.0
+        self.angles = np.linspace(-half, half, num_rays)
+        self._unit = np.stack([np.cos(self.angles), np.sin(self.angles), np.zeros(num_rays)], axis=1)
+
+    def scan(self, position: np.ndarray, yaw: float) -> np.ndarray:
+        """Ranges (float32, metres) from ``position`` with the scan centred on heading ``yaw``."""
+        c, s = np.cos(yaw), np.sin(yaw)
+        rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        dirs = self._unit @ rotation.T
+        starts = position + self.min_range * dirs
+        ends = position + self.max_range * dirs
+        hits = p.rayTestBatch(starts.tolist(), ends.tolist(), physicsClientId=self.client)
+        fractions = np.fromiter((h[2] for h in hits), dtype=np.float64, count=self.num_rays)
+        ranges = self.min_range + fractions * (self.max_range - self.min_range)
+        return ranges.astype(np.float32)

@@ -1,0 +1,118 @@
+"""The task interface and the task registry.
+
+A task owns what makes an episode: its objects (created once, in ``load``), the episode
+randomisation (``reset``), the task observation vector, the reward terms, success, and the
+episode metrics. It never reloads the scene and never touches the environment class.
+
+Hooks, in the order the environment calls them:
+``load()`` once -> per episode ``reset(rng)`` -> per 0.1 s control step ``after_control_step()``
+and the reward terms -> ``is_success()`` -> ``metrics()`` when the episode ends.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+
+from relmogen.tasks.terms import RewardTerm
+
+if TYPE_CHECKING:
+    from relmogen.robots.robot import Robot
+    from relmogen.scenes import Scene
+    from relmogen.simulation.world import World
+
+
+@dataclass
+class TaskContext:
+    """The simulated things a task may use."""
+
+    world: World
+    scene: Scene
+    robot: Robot
+
+
+class Task:
+    """Base class; subclasses fill in the class attributes and the hooks."""
+
+    name: ClassVar[str]
+    scene_kind: ClassVar[str]  # "office" or "house": scenes of this kind can host the task
+    head_tilt: ClassVar[str] = "navigation"  # which tilt of the robot spec the head uses
+    subgoal_steps: ClassVar[int] = 25  # episode length with subgoal controls
+    joint_steps: ClassVar[int] = 750  # episode length with joint-velocity control
+    subgoal_parts: ClassVar[tuple[str, ...]] = ("base", "arm")  # what the subgoal policy may use
+    task_obs_dim: ClassVar[int]
+
+    def __init__(self, ctx: TaskContext):
+        self.ctx = ctx
+        self.reward_terms: list[RewardTerm] = []
+
+    # ----------------------------------------------------------------------------- hooks
+    def load(self) -> None:
+        """Create the task's own bodies (markers, doors, ...). Called once."""
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """Randomise the episode: robot start, goal, object poses. No scene reload."""
+        raise NotImplementedError
+
+    def after_reset(self) -> None:
+        for term in self.reward_terms:
+            term.reset()
+
+    def after_control_step(self) -> None:
+        """Book-keeping after each 0.1 s of simulated time (path length, ...)."""
+
+    def reward(self) -> tuple[float, dict[str, float]]:
+        parts = {term.name: term() for term in self.reward_terms}
+        return float(sum(parts.values())), parts
+
+    def task_obs(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def is_success(self) -> bool:
+        raise NotImplementedError
+
+    def terminates_on_success(self) -> bool:
+        return True
+
+    def metrics(self) -> dict[str, float]:
+        """Episode metrics with the project-wide keys (``success``, ``spl``, ``closed_5``...)."""
+        return {"success": float(self.is_success())}
+
+    # ------------------------------------------------------------------ shared pieces
+    def head_tilt_angle(self) -> float:
+        return float(getattr(self.ctx.robot.spec, f"head_tilt_{self.head_tilt}"))
+
+    def proprioception(self) -> np.ndarray:
+        """End effector xyz (robot frame) + 8 joint positions + sin/cos of the 7 arm joints +
+        8 joint velocities: the 33 robot entries of the original 55-D task vector."""
+        robot = self.ctx.robot
+        positions, velocities = robot.joint_state_vector()
+        ee = self.to_robot_frame(robot.end_effector_position())
+        arm = positions[1:]
+        return np.concatenate([ee, positions, np.sin(arm), np.cos(arm), velocities]).astype(np.float32)
+
+    def to_robot_frame(self, points: np.ndarray) -> np.ndarray:
+        """World points (..., 2 or 3) -> the robot base frame (z measured from the floor)."""
+        x, y, yaw = self.ctx.robot.base_pose()
+        pts = np.asarray(points, dtype=np.float64)
+        c, s = np.cos(yaw), np.sin(yaw)
+        dx, dy = pts[..., 0] - x, pts[..., 1] - y
+        planar = [c * dx + s * dy, -s * dx + c * dy]
+        return np.stack(planar + ([pts[..., 2]] if pts.shape[-1] == 3 else []), axis=-1)
+
+
+TASKS: dict[str, type[Task]] = {}
+
+
+def register_task(cls: type[Task]) -> type[Task]:
+    """Class decorator: adds the task to the registry (the gymnasium ids follow from it)."""
+    TASKS[cls.name] = cls
+    return cls
+
+
+def task_class(name: str) -> type[Task]:
+    if name not in TASKS:
+        raise ValueError(f"unknown task {name!r}; valid tasks: {', '.join(sorted(TASKS))}")
+    return TASKS[name]

@@ -1,0 +1,46 @@
+"""PointNav: drive the base to a goal point without collision.
+
+Task Description:
+    The robot starts somewhere on the office floor and must bring its base centre within
+    0.5 m of a goal point. Only the base is needed; touching anything with a part other than
+    the gripper ends the episode (joint-velocity control).
+
+Randomizations:
+    Start position and yaw, and the goal position, sampled on the static floor plan every
+    episode such that the geodesic distance between them is between 1 m and 10 m.
+
+Success Conditions:
+    xy distance from the base centre to the goal below 0.5 m (d_th). The episode ends on
+    success.
+
+Reward:
+    geodesic: (previous - current) geodesic distance to the goal, weight 1 (metres of
+        progress on the static floor plan; negative when moving away).
+    success: +10 once, when the success condition first holds.
+
+Metrics:
+    success (SR), spl (success weighted by shortest path length / driven path length),
+    path_length, shortest_path_length, goal_distance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from relmogen.tasks.base import register_task
+from relmogen.tasks.navigation import NavigationTask
+
+
+@register_task
+class PointNav(NavigationTask):
+    name = "PointNav"
+    min_geodesic = 1.0
+    max_geodesic = 10.0
+
+    def reset(self, rng: np.random.Generator) -> None:
+        start_xy, start_yaw, goal_xy = self.ctx.scene.sample_start_goal(
+            rng, min_geodesic=self.min_geodesic, max_geodesic=self.max_geodesic
+        )
+        self.set_goal(goal_xy)
+        self.ctx.robot.reset((start_xy[0], start_xy[1], start_yaw), head_tilt=self.head_tilt_angle())
+        self.start_episode()
