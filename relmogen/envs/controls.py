@@ -68,11 +68,20 @@ class JointVelocityControl:
     def extra_observation_space(self) -> dict[str, spaces.Space]:
         return {}
 
+    def extra_info(self) -> dict[str, np.ndarray]:
+        return {}
 
-CONTROLS = {"joint": JointVelocityControl}
+
+CONTROL_NAMES = ("joint", "subgoal-r", "subgoal-d")
 
 
 def make_control(name: str, env: RelmogenEnv, **options: Any):
-    if name not in CONTROLS:
-        raise ValueError(f"unknown control {name!r}; valid controls: {', '.join(CONTROLS)}")
-    return CONTROLS[name](env, **options)
+    if name not in CONTROL_NAMES:
+        raise ValueError(f"unknown control {name!r}; valid controls: {', '.join(CONTROL_NAMES)}")
+    if name == "joint":
+        if options:
+            raise ValueError(f"control 'joint' takes no options, got {sorted(options)}")
+        return JointVelocityControl(env)
+    from relmogen.envs.subgoal_controls import SubgoalDControl, SubgoalRControl
+
+    return (SubgoalRControl if name == "subgoal-r" else SubgoalDControl)(env, **options)

@@ -81,7 +81,7 @@ class RelmogenEnv(gym.Env):
         self.task.after_reset()
         self.control.reset()
         self.elapsed_steps, self.sim_time, self.episode_return = 0, 0.0, 0.0
-        return self._observe(), {}
+        return self._observe(), self.control.extra_info()
 
     def step(self, action):
         outcome = self.control.step(action)
@@ -93,7 +93,9 @@ class RelmogenEnv(gym.Env):
         if terminated or truncated:
             metrics = self.task.metrics()
             info.update(metrics=metrics, is_success=bool(metrics["success"]))
-        return self._observe(), outcome.reward, terminated, truncated, info
+        obs = self._observe()
+        info.update(self.control.extra_info())
+        return obs, outcome.reward, terminated, truncated, info
 
     def render(self):
         if self.render_mode != "rgb_array":

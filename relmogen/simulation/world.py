@@ -16,6 +16,9 @@ GRAVITY = -9.81
 @dataclass(frozen=True)
 class PhysicsSettings:
     time_step: float = 0.025  # paper Table A.6
+    # Two sub-steps keep differential driving straight: with none, 1 s drives drifted up to
+    # 0.24 rad off heading; with two, at most 0.06 rad (measured over 12 random drives).
+    sub_steps: int = 2
     solver_iterations: int = 50
 
 
@@ -30,6 +33,7 @@ class World:
         p.setGravity(0.0, 0.0, GRAVITY, physicsClientId=self.client)
         p.setPhysicsEngineParameter(
             fixedTimeStep=self.settings.time_step,
+            numSubSteps=self.settings.sub_steps,
             numSolverIterations=self.settings.solver_iterations,
             deterministicOverlappingPairs=1,
             physicsClientId=self.client,

@@ -76,6 +76,11 @@ class Task:
     def terminates_on_success(self) -> bool:
         return True
 
+    def map_marks(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Robot-frame points and uint8 values to draw on the local map for SGP-D (goal and
+        waypoints for navigation tasks); None when the task gives no such information."""
+        return None
+
     def metrics(self) -> dict[str, float]:
         """Episode metrics with the project-wide keys (``success``, ``spl``, ``closed_5``...)."""
         return {"success": float(self.is_success())}

@@ -47,13 +47,11 @@ class NavigationTask(Task):
         # Visual only: seen in third-person views; the policy gets the goal as a vector.
         self.goal_marker = visual_marker(self.ctx.world.client, 0.15, 0.02, (0.1, 0.8, 0.2, 0.8))
 
-    def set_goal(self, goal_xy: np.ndarray) -> None:
-        """Recompute the distance field for a new goal (once per episode, never per step)."""
+    def set_goal(self, goal_xy: np.ndarray, field: GeodesicField | None = None) -> None:
+        """Set the goal and its distance field (computed once per episode, never per step)."""
         self.goal_xy = np.asarray(goal_xy, dtype=np.float64)
         move_body(self.ctx.world.client, self.goal_marker, (*self.goal_xy, 0.01))
-        self.field = GeodesicField(
-            self.ctx.scene.traversability, self.goal_xy, self.ctx.robot.spec.base_radius
-        )
+        self.field = field or self.ctx.scene.geodesic_field(self.goal_xy, self.ctx.robot.spec.base_radius)
 
     def start_episode(self) -> None:
         """Call at the end of ``reset`` once the robot is at its start pose."""
@@ -88,6 +86,13 @@ class NavigationTask(Task):
         goal = self.to_robot_frame(self.goal_xy)
         path = self.to_robot_frame(waypoints).ravel()
         return np.concatenate([path, goal, self.proprioception()]).astype(np.float32)
+
+    def map_marks(self) -> tuple[np.ndarray, np.ndarray]:
+        waypoints = self.field.waypoints(self.robot_xy(), NUM_WAYPOINTS, WAYPOINT_SPACING)
+        points = self.to_robot_frame(np.vstack([waypoints, self.goal_xy]))
+        values = np.full(len(points), 128, dtype=np.uint8)
+        values[-1] = 255
+        return points, values
 
     def metrics(self) -> dict[str, float]:
         success = self.is_success()

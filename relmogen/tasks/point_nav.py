@@ -38,9 +38,10 @@ class PointNav(NavigationTask):
     max_geodesic = 10.0
 
     def reset(self, rng: np.random.Generator) -> None:
-        start_xy, start_yaw, goal_xy = self.ctx.scene.sample_start_goal(
-            rng, min_geodesic=self.min_geodesic, max_geodesic=self.max_geodesic
+        sample = self.ctx.scene.sample_start_goal(
+            rng, self.min_geodesic, self.max_geodesic, robot_radius=self.ctx.robot.spec.base_radius
         )
-        self.set_goal(goal_xy)
-        self.ctx.robot.reset((start_xy[0], start_xy[1], start_yaw), head_tilt=self.head_tilt_angle())
+        self.set_goal(sample.goal_xy, sample.field)
+        start = (*sample.start_xy, sample.start_yaw)
+        self.ctx.robot.reset(start, head_tilt=self.head_tilt_angle())
         self.start_episode()

@@ -7,10 +7,10 @@ Task Description:
     needed.
 
 Randomizations:
-    Robot start: in front of the table's long side, 0.30-0.45 m from its edge, facing it
-    with a yaw offset in [-0.2, 0.2] rad and a lateral offset in [-0.3, 0.3] m.
-    Goal: uniform on the table top within the arm's reach (0.05-0.45 m in from the edge,
-    +-0.4 m laterally around the robot).
+    Robot start: one of the scene's poses in front of the table, shifted by up to 0.1 m
+    along and across the table edge, yaw offset in [-0.2, 0.2] rad.
+    Goal: uniform on the table top (5 cm from its edges) within the arm's reach: 0.45-0.95 m
+    ahead of the base centre and at most 0.4 m to either side.
 
 Success Conditions:
     Gripper link origin within 0.1 m (d_gth) of the goal point. The episode ends on success.
@@ -55,15 +55,22 @@ class TabletopReachM(Task):
         self.marker = visual_marker(self.ctx.world.client, 0.05, 0.004, self.marker_rgba)
 
     def reset(self, rng: np.random.Generator) -> None:
-        table = self.ctx.scene.table
-        lateral = rng.uniform(-0.3, 0.3)
-        standoff = self.ctx.robot.spec.base_radius + rng.uniform(0.30, 0.45)
-        x, y, yaw = table.front_pose(lateral, standoff)
-        self.ctx.robot.reset((x, y, yaw + rng.uniform(-0.2, 0.2)), head_tilt=self.head_tilt_angle())
-        inset = rng.uniform(0.05, 0.45)
-        goal_lateral = lateral + rng.uniform(-0.4, 0.4)
-        self.goal = table.surface_point(goal_lateral, inset)
+        spots = self.ctx.scene.tabletop_spots
+        x, y, yaw = spots[rng.integers(len(spots))]
+        x, y = np.array([x, y]) + rng.uniform(-0.1, 0.1, 2)
+        yaw += rng.uniform(-0.2, 0.2)
+        self.ctx.robot.reset((x, y, yaw), head_tilt=self.head_tilt_angle())
+        self.goal = self._sample_goal(rng, np.array([x, y]), yaw)
         move_body(self.ctx.world.client, self.marker, self.goal + (0.0, 0.0, 0.002))
+
+    def _sample_goal(self, rng: np.random.Generator, base_xy: np.ndarray, yaw: float) -> np.ndarray:
+        table = self.ctx.scene.reach_table
+        forward, left = np.array([np.cos(yaw), np.sin(yaw)]), np.array([-np.sin(yaw), np.cos(yaw)])
+        for _ in range(1000):
+            xy = base_xy + rng.uniform(0.45, 0.95) * forward + rng.uniform(-0.4, 0.4) * left
+            if table.footprint.contains(xy, margin=0.05):
+                return np.array([xy[0], xy[1], table.height])
+        raise RuntimeError(f"no reachable point on {table.name} from {base_xy}: check the scene's tabletop_spots")
 
     def goal_distance(self) -> float:
         return float(np.linalg.norm(self.ctx.robot.end_effector_position() - self.goal))

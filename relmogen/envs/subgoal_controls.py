@@ -1,0 +1,235 @@
+"""Subgoal action spaces: one environment step executes one subgoal through the motion generator.
+
+``subgoal-r`` (SGP-R, continuous; the original 8-D meaning, facts sheet section 5):
+    a[0] > 0 selects a base subgoal, otherwise an arm subgoal (tasks that use only one part
+    ignore it). Base: polar angle a[1] * 110 deg, distance a[2] + 1 (0-2 m), yaw change
+    a[3] * pi, in the robot frame. Arm: image row (a[4] + 1) / 2 * H, column (a[5] + 1) / 2 * W,
+    push vector (a[6], a[7]) * 0.25 m in the base frame (clipped to 0.25 m).
+
+``subgoal-d`` (SGP-D, discrete over dense maps at 1/4 of the image resolution, Q = S / 4):
+    index in [0, L*Q*Q): base map; (l, i, j) = unravel(index, (L, Q, Q)); the goal is the
+        centre of cell (i, j) of the 5 m local map (i along x forward, j along y left, as in
+        ``LocalMap``) with final yaw -pi + l * 2pi / L in the robot frame.
+    index in [L*Q*Q, (L+K)*Q*Q): arm map; (k, i, j) = unravel(index - L*Q*Q, (K, Q, Q)); the
+        image pixel (row 4i + 2, column 4j + 2) with a push of ``push_length`` m in base-frame
+        direction k * 2pi / K.
+    The observation adds ``local_map`` (S, S, C) uint8: channel 0 the occupancy map
+    (FREE 0 / UNKNOWN 128 / OCCUPIED 255), and for navigation tasks channel 1 with the goal
+    (255) and the shortest-path waypoints (128) drawn on it. ``info["base_mask"]`` is a
+    (Q, Q) bool array of base cells where the robot's footprint is free on the map.
+
+Rewards are the sum of the low-level (0.1 s) rewards accrued while the subgoal executed.
+When no plan is found the step is a no-op: nothing moves, the reward is 0, and it counts.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from gymnasium import spaces
+
+from relmogen.envs.controls import StepOutcome, validate_action
+from relmogen.motion_generation.base_planner import FootprintChecker
+from relmogen.motion_generation.generator import MotionGenerator, MotionGeneratorConfig, SubgoalResult
+from relmogen.simulation.occupancy import build_local_map
+
+if TYPE_CHECKING:
+    from relmogen.envs.relmogen_env import RelmogenEnv
+
+BASE_ANGLE_RANGE = np.deg2rad(110.0)
+PUSH_MAX = 0.25
+YAW_BINS = 12  # L
+PUSH_BINS = 12  # K
+Q_DOWNSAMPLE = 4
+
+
+class RewardAccumulator:
+    """Sums task rewards at 0.1 s boundaries of simulated time while the MG executes."""
+
+    def __init__(self, env: RelmogenEnv):
+        self.env = env
+        self.total, self.terms, self.pending = 0.0, {}, 0.0
+
+    def tick(self, dt: float) -> None:
+        self.env.sim_time += dt
+        self.env.task.after_control_step()
+        self.pending += dt
+        if self.pending >= 0.1 - 1e-9:
+            self.flush()
+
+    def flush(self) -> None:
+        reward, terms = self.env.task.reward()
+        self.total += reward
+        for key, value in terms.items():
+            self.terms[key] = self.terms.get(key, 0.0) + value
+        self.pending = 0.0
+
+
+class SubgoalControl:
+    """Shared execution of base and arm subgoals; subclasses decode actions."""
+
+    name = "subgoal"
+
+    def __init__(self, env: RelmogenEnv, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
+                 arm_collision: bool = True):
+        self.env = env
+        self.episode_steps = env.task.subgoal_steps
+        self.parts = env.task.subgoal_parts
+        config = MotionGeneratorConfig(base_planner=base_planner, arm_planner=arm_planner,
+                                       arm_collision_checking=arm_collision)
+        self.mg = MotionGenerator(env, config)
+
+    def reset(self) -> None:
+        pass
+
+    def execute_base(self, goal_robot_frame: np.ndarray) -> tuple[SubgoalResult, RewardAccumulator]:
+        rewards = RewardAccumulator(self.env)
+        result = self.mg.move_base(goal_robot_frame, self.env.np_random, rewards.tick)
+        rewards.flush()
+        return result, rewards
+
+    def execute_arm(self, pixel_row: int, pixel_col: int, push_base: np.ndarray):
+        rewards = RewardAccumulator(self.env)
+        env = self.env
+        depth = float(env.last_frame.depth[pixel_row, pixel_col])
+        if depth <= 0.0:
+            result = SubgoalResult("arm", self.mg.config.arm_planner, False, "pixel has no depth")
+            return result, rewards
+        point = env.camera.pixel_to_world(env.last_frame, pixel_col, pixel_row)
+        yaw = env.robot.base_pose()[2]
+        push_world = np.array([np.cos(yaw) * push_base[0] - np.sin(yaw) * push_base[1],
+                               np.sin(yaw) * push_base[0] + np.cos(yaw) * push_base[1], 0.0])
+        result = self.mg.reach_and_push(point, push_world, env.np_random, rewards.tick)
+        rewards.flush()
+        return result, rewards
+
+    def outcome(self, result: SubgoalResult, rewards: RewardAccumulator, **extra: Any) -> StepOutcome:
+        task = self.env.task
+        termination = "success" if task.terminates_on_success() and task.is_success() else None
+        info = dict(result.as_info(), **extra)
+        return StepOutcome(rewards.total, termination, rewards.terms, info)
+
+    def extra_observation(self) -> dict[str, np.ndarray]:
+        return {}
+
+    def extra_observation_space(self) -> dict[str, spaces.Space]:
+        return {}
+
+    def extra_info(self) -> dict[str, np.ndarray]:
+        return {}
+
+
+class SubgoalRControl(SubgoalControl):
+    name = "subgoal-r"
+
+    def __init__(self, env: RelmogenEnv, **options: Any):
+        super().__init__(env, **options)
+        self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
+
+    def step(self, action) -> StepOutcome:
+        a = np.clip(validate_action(action, (8,)), -1.0, 1.0)
+        use_base = self.parts == ("base",) or (self.parts != ("arm",) and a[0] > 0.0)
+        if use_base:
+            angle, distance = a[1] * BASE_ANGLE_RANGE, a[2] + 1.0
+            goal = np.array([distance * np.cos(angle), distance * np.sin(angle), a[3] * np.pi])
+            return self.outcome(*self.execute_base(goal))
+        height, width = self.env.last_frame.depth.shape
+        row = min(int((a[4] + 1.0) / 2.0 * height), height - 1)
+        col = min(int((a[5] + 1.0) / 2.0 * width), width - 1)
+        push = a[6:8] * PUSH_MAX
+        norm = float(np.linalg.norm(push))
+        if norm > PUSH_MAX:
+            push *= PUSH_MAX / norm
+        return self.outcome(*self.execute_arm(row, col, push))
+
+
+class SubgoalDControl(SubgoalControl):
+    name = "subgoal-d"
+
+    def __init__(self, env: RelmogenEnv, push_length: float = PUSH_MAX, **options: Any):
+        super().__init__(env, **options)
+        size = env.camera.intrinsics.width
+        if size % Q_DOWNSAMPLE:
+            raise ValueError(f"subgoal-d needs an image size divisible by {Q_DOWNSAMPLE}, got {size}")
+        self.map_pixels, self.q = size, size // Q_DOWNSAMPLE
+        self.push_length = float(push_length)
+        self.num_base = YAW_BINS * self.q * self.q
+        self.action_space = spaces.Discrete(self.num_base + PUSH_BINS * self.q * self.q)
+        self.map_channels = 2 if env.task.map_marks() is not None else 1
+        self._base_mask = np.ones((self.q, self.q), dtype=bool)
+
+    # ------------------------------------------------------------------- index mapping
+    def decode(self, index: int) -> tuple[str, int, int, int]:
+        """Action index -> (part, bin, i, j)."""
+        if index < self.num_base:
+            l, i, j = np.unravel_index(index, (YAW_BINS, self.q, self.q))
+            return "base", int(l), int(i), int(j)
+        k, i, j = np.unravel_index(index - self.num_base, (PUSH_BINS, self.q, self.q))
+        return "arm", int(k), int(i), int(j)
+
+    def encode(self, part: str, bin_: int, i: int, j: int) -> int:
+        if part == "base":
+            return int(np.ravel_multi_index((bin_, i, j), (YAW_BINS, self.q, self.q)))
+        return self.num_base + int(np.ravel_multi_index((bin_, i, j), (PUSH_BINS, self.q, self.q)))
+
+    def step(self, action) -> StepOutcome:
+        index = self._validate(action)
+        part, bin_, i, j = self.decode(index)
+        if part not in self.parts:
+            skipped = SubgoalResult(part, "none", False, f"{part} subgoals are not used by {self.env.task.name}")
+            return self.outcome(skipped, RewardAccumulator(self.env), action_index=index)
+        if part == "base":
+            cell = 5.0 / self.q
+            goal = np.array([(i + 0.5) * cell - 2.5, (j + 0.5) * cell - 2.5, -np.pi + bin_ * 2 * np.pi / YAW_BINS])
+            return self.outcome(*self.execute_base(goal), action_index=index)
+        angle = bin_ * 2 * np.pi / PUSH_BINS
+        push = self.push_length * np.array([np.cos(angle), np.sin(angle)])
+        row, col = Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2
+        return self.outcome(*self.execute_arm(row, col, push), action_index=index)
+
+    def _validate(self, action) -> int:
+        arr = np.asarray(action)
+        if arr.size != 1 or not np.issubdtype(arr.dtype, np.integer) and not float(arr).is_integer():
+            raise ValueError(f"subgoal-d action must be one integer index, got {action!r}")
+        index = int(arr)
+        if not 0 <= index < self.action_space.n:
+            raise ValueError(f"subgoal-d action {index} outside [0, {self.action_space.n})")
+        return index
+
+    # ------------------------------------------------------------------ observations
+    def extra_observation(self) -> dict[str, np.ndarray]:
+        ranges = self.env.scan()
+        self._base_mask = self._free_cells(self.mg.local_map(ranges))
+        obs_map = self.mg.local_map(ranges, resolution=5.0 / self.map_pixels)
+        channels = [obs_map.grid]
+        marks = self.env.task.map_marks()
+        if marks is not None:
+            channels.append(_draw_marks(obs_map, *marks))
+        return {"local_map": np.stack(channels, axis=-1)}
+
+    def extra_observation_space(self) -> dict[str, spaces.Space]:
+        shape = (self.map_pixels, self.map_pixels, self.map_channels)
+        return {"local_map": spaces.Box(0, 255, shape, np.uint8)}
+
+    def extra_info(self) -> dict[str, np.ndarray]:
+        return {"base_mask": self._base_mask.copy()}
+
+    def _free_cells(self, local_map) -> np.ndarray:
+        """Q x Q cells whose centre leaves the footprint clear of obstacles on ``local_map``."""
+        cell = 5.0 / self.q
+        centres = (np.arange(self.q) + 0.5) * cell - 2.5
+        points = np.stack(np.meshgrid(centres, centres, indexing="ij"), axis=-1)
+        cells = np.clip(local_map.point_to_cell(points), 0, local_map.size - 1)
+        clearance = FootprintChecker(local_map, self.env.robot.spec.base_radius).clearance_grid
+        return clearance[cells[..., 0], cells[..., 1]] >= self.env.robot.spec.base_radius
+
+
+def _draw_marks(local_map, points: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """A channel with ``values`` drawn at robot-frame ``points`` (3 x 3 cells each)."""
+    channel = np.zeros_like(local_map.grid)
+    n = channel.shape[0]
+    for (ci, cj), value in zip(local_map.point_to_cell(points), values):
+        rows, cols = slice(max(ci - 1, 0), min(ci + 2, n)), slice(max(cj - 1, 0), min(cj + 2, n))
+        channel[rows, cols] = np.maximum(channel[rows, cols], value)
+    return channel

@@ -1,0 +1,284 @@
+"""The arm half of the motion generator: IK to a subgoal point, joint-space plan, then a push.
+
+``ArmMotion.reach_and_push`` (paper section 4 / relmogen-facts section 4):
+
+1. position-only IK of the gripper link on the subgoal point (PyBullet DLS, random restarts,
+   accepted within ``ik_tolerance`` and, when collision checking is on, collision-free);
+2. joint-space plan of torso + 7 arm joints from the current (tucked) pose with the selected
+   backend (``make_planner``), executed kinematically as in the original;
+3. a straight Cartesian push from the reached point along the push vector (clipped to
+   ``push_max_length``), IK at ``push_points`` points, executed with physics under position
+   control with the joints' URDF efforts (times ``push_force_scale``) while the base is pinned;
+4. a short kinematic retreat back along the push line, then the default (tucked) pose.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pybullet as p
+
+from relmogen.motion_generation.ik import ArmIK, Config
+from relmogen.motion_generation.planners import Planner, PlanningProblem, make_planner
+from relmogen.motion_generation.push import (
+    PhysicsCallback,
+    base_held_still,
+    follow_joint_targets,
+    make_push_line,
+    step_physics,
+)
+from relmogen.robots.robot import BASE_LINK, Robot
+from relmogen.simulation.sensors import Camera, CameraFrame
+
+
+@dataclass(frozen=True)
+class ArmConfig:
+    planner: str = "rrt_connect"
+    ik_iterations: int = 100
+    ik_restarts: int = 50  # IK attempts: the first from the current pose, the others random
+    ik_tolerance: float = 0.05  # metres, forward-kinematics check
+    joint_resolution: float = 0.05  # rad (m for the torso): planner step
+    collision_checking: bool = True  # the paper trains without it and evaluates with it
+    # The gripper touches the subgoal surface by design, so its links may penetrate other
+    # bodies by this much; every other arm link must stay clear.
+    gripper_penetration_allowance: float = 0.03
+    push_max_length: float = 0.25
+    push_points: int = 50
+    push_ik_iterations: int = 10  # per push point, seeded from the previous point
+    push_steps_per_point: int = 2  # physics steps per push point (50 points -> 2.5 s)
+    push_settle_steps: int = 4  # hold the last target before measuring the pushed distance
+    push_force_scale: float = 1.0  # multiple of each joint's URDF effort
+    push_position_gain: float = 0.3
+    base_hold_force: float = 1e5  # N, the constraint pinning the base during the push
+    retreat_distance: float = 0.05  # m back along the push line before tucking the arm
+    retreat_points: int = 5
+
+
+@dataclass(frozen=True)
+class ArmResult:
+    success: bool
+    reason: str
+    planning_time_s: float = 0.0  # IK + motion planning (wall clock)
+    simulated_time_s: float = 0.0  # physics steps x time step (the push)
+    physics_steps: int = 0
+    pushed_distance_m: float = 0.0  # gripper displacement along the push direction
+    wall_time_s: float = 0.0
+    goal_config: Config | None = None
+    path: list[Config] | None = field(default=None, repr=False)
+
+
+class ArmCollisionChecker:
+    """``q (8,) -> bool``: joint limits, links moved by the planning joints against other
+    bodies, and arm links against non-adjacent robot links (pairs precomputed once)."""
+
+    def __init__(self, client: int, robot: Robot, gripper_penetration_allowance: float):
+        self.client, self.robot = client, robot
+        self.joints = robot.arm_joint_indices
+        self.lower, self.upper = robot.joint_lower[self.joints], robot.joint_upper[self.joints]
+        anchors = self._rigid_anchors()
+        shaped = [link for link in anchors if self._has_collision_shape(link)]
+        self.moving_links = [link for link in shaped if anchors[link] != BASE_LINK]
+        gripper = set(robot.gripper_link_indices)
+        self._world_thresholds = {link: -gripper_penetration_allowance if link in gripper else 0.0
+                                  for link in self.moving_links}
+        candidates = self._self_pair_candidates(shaped, anchors)
+        self.ignored_pairs = self._pairs_touching_at_default_pose(candidates)
+        self.self_pairs = [pair for pair in candidates if pair not in self.ignored_pairs]
+        self._aabb_links = sorted({link for pair in self.self_pairs for link in pair} | set(self.moving_links))
+        self._aabb_slot = {link: i for i, link in enumerate(self._aabb_links)}
+        self._pair_slots = np.array([(self._aabb_slot[a], self._aabb_slot[b]) for a, b in self.self_pairs],
+                                    dtype=np.int64).reshape(-1, 2)
+
+    # ------------------------------------------------------------------ setup
+
+    def _has_collision_shape(self, link: int) -> bool:
+        return bool(p.getCollisionShapeData(self.robot.robot_id, link, physicsClientId=self.client))
+
+    def _rigid_anchors(self) -> dict[int, int]:
+        """Each link -> the nearest link at or above it whose joint is a planning joint
+        (BASE_LINK if none): links with the same anchor never move relative to each other
+        while planning (head and fingers count as rigid)."""
+        body, planning = self.robot.robot_id, set(self.joints.tolist())
+        anchors = {BASE_LINK: BASE_LINK}
+        for link in range(p.getNumJoints(body, physicsClientId=self.client)):
+            parent = p.getJointInfo(body, link, physicsClientId=self.client)[16]
+            anchors[link] = link if link in planning else anchors[parent]
+        return anchors
+
+    def _self_pair_candidates(self, links: list[int], anchors: dict[int, int]) -> list[tuple[int, int]]:
+        body = self.robot.robot_id
+        parent_anchor = {a: (anchors[p.getJointInfo(body, a, physicsClientId=self.client)[16]]
+                             if a != BASE_LINK else None) for a in set(anchors.values())}
+        arm_anchors = set(self.joints[1:].tolist())  # the 7 arm joints (not the torso)
+
+        def adjacent(a: int, b: int) -> bool:
+            return a == b or parent_anchor[a] == b or parent_anchor[b] == a
+
+        return [(a, b) for a, b in itertools.combinations(links, 2)
+                if (anchors[a] in arm_anchors or anchors[b] in arm_anchors)
+                and not adjacent(anchors[a], anchors[b])]
+
+    def _pairs_touching_at_default_pose(self, pairs: list[tuple[int, int]]) -> set[tuple[int, int]]:
+        spec = self.robot.spec
+        saved = self.robot.joint_state_vector()
+        self.robot.set_joint_positions(self.joints, [spec.default_torso, *spec.default_arm_pose])
+        touching = {pair for pair in pairs if self._links_touch(*pair)}
+        self._restore(saved)
+        return touching
+
+    def _restore(self, saved: tuple[Config, Config]) -> None:
+        for j, q, v in zip(self.joints, *saved):
+            p.resetJointState(self.robot.robot_id, int(j), float(q), float(v), physicsClientId=self.client)
+
+    # ------------------------------------------------------------------ queries
+
+    def _links_touch(self, a: int, b: int) -> bool:
+        body = self.robot.robot_id
+        return bool(p.getClosestPoints(body, body, 0.0, linkIndexA=a, linkIndexB=b, physicsClientId=self.client))
+
+    def within_limits(self, q: Config) -> bool:
+        return bool(np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9))
+
+    def link_hits_world(self, link: int, aabb_min, aabb_max) -> bool:
+        body, client = self.robot.robot_id, self.client
+        threshold = self._world_thresholds[link]
+        for other, other_link in p.getOverlappingObjects(aabb_min, aabb_max, physicsClientId=client) or ():
+            if other == body:
+                continue
+            points = p.getClosestPoints(body, other, 0.0, linkIndexA=link, linkIndexB=other_link,
+                                        physicsClientId=client)
+            if any(point[8] < threshold for point in points):
+                return True
+        return False
+
+    def _self_pairs_with_overlapping_boxes(self, boxes: np.ndarray) -> list[tuple[int, int]]:
+        """Narrow-phase candidates: pairs whose axis-aligned bounding boxes overlap."""
+        a, b = boxes[self._pair_slots[:, 0]], boxes[self._pair_slots[:, 1]]
+        overlap = np.all((a[:, 0] <= b[:, 1]) & (b[:, 0] <= a[:, 1]), axis=1)
+        return [self.self_pairs[i] for i in np.flatnonzero(overlap)]
+
+    def current_pose_in_collision(self) -> bool:
+        body, client = self.robot.robot_id, self.client
+        boxes = np.array([p.getAABB(body, link, physicsClientId=client) for link in self._aabb_links])
+        if any(self._links_touch(a, b) for a, b in self._self_pairs_with_overlapping_boxes(boxes)):
+            return True
+        return any(self.link_hits_world(link, *boxes[self._aabb_slot[link]]) for link in self.moving_links)
+
+    def __call__(self, q: Config) -> bool:
+        """Sets the planning joints (the caller restores them) and checks; True = collision."""
+        if not self.within_limits(q):
+            return True
+        self.robot.set_joint_positions(self.joints, q)
+        return self.current_pose_in_collision()
+
+
+class ArmMotion:
+    """Reach a world point with the gripper and push along a world vector (see module doc)."""
+
+    def __init__(self, world_client: int, robot: Robot, config: ArmConfig | None = None):
+        self.client, self.robot = world_client, robot
+        self.config = config or ArmConfig()
+        self.ik_solver = ArmIK(world_client, robot)
+        self.checker = ArmCollisionChecker(world_client, robot, self.config.gripper_penetration_allowance)
+        self.time_step = p.getPhysicsEngineParameters(physicsClientId=world_client)["fixedTimeStep"]
+        self.planner: Planner = make_planner(self.config.planner)
+        spec = robot.spec
+        self.default_config = np.array([spec.default_torso, *spec.default_arm_pose])
+
+    def set_planner(self, name: str, params=None, **overrides) -> None:
+        """Swap the backend (``rrt_connect``, ``lazy_prm``, ``ompl_rrtconnect``, ``ompl_prm``);
+        ``params``/``overrides`` go to ``make_planner``."""
+        self.planner = make_planner(name, params, **overrides)
+
+    # ------------------------------------------------------------------ building blocks
+
+    def collision_fn(self):
+        """The planners' collision function; only joint limits when collision checking is off."""
+        if self.config.collision_checking:
+            return self.checker
+        return lambda q: not self.checker.within_limits(np.asarray(q))
+
+    def solve_ik(self, target_xyz: np.ndarray, rng: np.random.Generator):
+        cfg = self.config
+        valid = (lambda q: not self.checker(q)) if cfg.collision_checking else None
+        return self.ik_solver.solve(target_xyz, rng, cfg.ik_iterations, cfg.ik_restarts, cfg.ik_tolerance, valid)
+
+    def ik(self, target_xyz: np.ndarray, rng: np.random.Generator) -> Config | None:
+        """Planning-joint configuration putting the gripper within tolerance of the target."""
+        return self.solve_ik(target_xyz, rng).config
+
+    def plan(self, goal: Config, rng: np.random.Generator):
+        """Joint-space plan from the current planning-joint configuration; state restored."""
+        saved = self.robot.joint_state_vector()
+        problem = PlanningProblem(start=saved[0], goal=goal, lower=self.checker.lower, upper=self.checker.upper,
+                                  collision_fn=self.collision_fn(), resolutions=self.config.joint_resolution)
+        try:
+            return self.planner.plan(problem, rng)
+        finally:
+            self.ik_solver.restore(saved)
+
+    # ------------------------------------------------------------------ the subgoal
+
+    def reach_and_push(self, target_xyz_world, push_vector_world, rng: np.random.Generator,
+                       on_physics_steps: PhysicsCallback | None = None) -> ArmResult:
+        start = time.perf_counter()
+        ik = self.solve_ik(np.asarray(target_xyz_world, dtype=np.float64), rng)
+        if ik.config is None:
+            return ArmResult(False, ik.reason, planning_time_s=time.perf_counter() - start,
+                             wall_time_s=time.perf_counter() - start)
+        plan = self.plan(ik.config, rng)
+        planning_time = time.perf_counter() - start
+        if not plan.success:
+            return ArmResult(False, f"no arm plan: {plan.reason}", planning_time_s=planning_time,
+                             wall_time_s=time.perf_counter() - start, goal_config=ik.config)
+        self._move_kinematically(plan.path[-1])
+        steps, pushed = self._push(push_vector_world, on_physics_steps)
+        self._retreat_and_tuck(push_vector_world)
+        return ArmResult(True, "pushed", planning_time, steps * self.time_step, steps, pushed,
+                         time.perf_counter() - start, ik.config, plan.path)
+
+    def reach_and_push_pixel(self, camera: Camera, frame: CameraFrame, u: int, v: int, push_vector_world,
+                             rng: np.random.Generator,
+                             on_physics_steps: PhysicsCallback | None = None) -> ArmResult:
+        """The same from a pixel of an RGB-D frame (the paper's arm action)."""
+        try:
+            target = camera.pixel_to_world(frame, u, v)
+        except ValueError as error:
+            return ArmResult(False, "pixel has no depth" if "depth" in str(error) else str(error))
+        return self.reach_and_push(target, push_vector_world, rng, on_physics_steps)
+
+    # ------------------------------------------------------------------ execution
+
+    def _move_kinematically(self, q: Config) -> None:
+        """Set the planning joints and hold them there with the motors."""
+        self.robot.set_joint_positions(self.robot.arm_joint_indices, q)
+        self.robot.command_joint_positions(self.robot.arm_joint_indices, q)
+
+    def _push(self, push_vector_world, on_physics_steps: PhysicsCallback | None) -> tuple[int, float]:
+        cfg, robot = self.config, self.robot
+        line = make_push_line(robot.end_effector_position(), push_vector_world, cfg.push_max_length)
+        if line.length <= 0:
+            return 0, 0.0
+        start_q = robot.joint_state_vector()[0]
+        targets = self.ik_solver.track_line(line.points(cfg.push_points), start_q, cfg.push_ik_iterations)
+        forces = robot.joint_max_force[robot.arm_joint_indices] * cfg.push_force_scale
+        with base_held_still(self.client, robot, cfg.base_hold_force):
+            steps = follow_joint_targets(self.client, robot, targets, forces, cfg.push_position_gain,
+                                         cfg.push_steps_per_point, on_physics_steps)
+            steps += step_physics(self.client, cfg.push_settle_steps, on_physics_steps)
+        return steps, line.progress(robot.end_effector_position())
+
+    def _retreat_and_tuck(self, push_vector_world) -> None:
+        """Back off along the push line from where the gripper actually is (so a kinematic jump
+        never lands inside the pushed object), then the default pose, held by the motors."""
+        cfg, robot = self.config, self.robot
+        back = -np.asarray(push_vector_world, dtype=np.float64)
+        line = make_push_line(robot.end_effector_position(), back, cfg.retreat_distance)
+        if line.length > 0 and cfg.retreat_points > 0:
+            path = self.ik_solver.track_line(line.points(cfg.retreat_points), robot.joint_state_vector()[0],
+                                             cfg.push_ik_iterations)
+            robot.set_joint_positions(robot.arm_joint_indices, path[-1])
+        self._move_kinematically(self.default_config)

@@ -1,0 +1,230 @@
+"""Base motion planning in (x, y, yaw) on a LiDAR :class:`LocalMap`.
+
+Planning happens in the robot frame at scan time (start = (0, 0, 0)); the result is returned
+as world-frame waypoints. The robot is a disc of ``footprint_radius``; its clearance is read
+from a distance transform of the obstacle cells (OCCUPIED and UNKNOWN, plus everything outside
+the map window), so a collision check is one array lookup. Motion between configurations is
+rotate-to-face-the-target, drive straight, rotate to the final yaw, at 0.05 m / 0.05 rad steps.
+
+Compared with the original ReLMoGen base planner:
+
+* a pure in-place rotation is returned at once (footprint is a disc: rotation never collides);
+* the direct connection is tried first, so an empty room always plans;
+* a start that already touches an obstacle (inflation, LiDAR noise, discretisation) can leave
+  it: within one footprint radius of the start, a configuration is accepted when its clearance
+  is at least the start's clearance (the robot may not get deeper into the obstacle, but may
+  move along or away from it); beyond that radius full clearance is required;
+* a goal outside the map window or whose footprint hits an obstacle fails immediately with
+  ``reason`` "goal outside local map" / "goal in collision".
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+
+from relmogen.motion_generation.planners import (
+    Planner,
+    PlanningProblem,
+    RngLike,
+    as_generator,
+    make_planner,
+)
+from relmogen.simulation.occupancy import FREE, UNKNOWN, LocalMap
+
+FETCH_FOOTPRINT_RADIUS = 0.279
+BASE_STEP_M = 0.05
+BASE_STEP_RAD = 0.05
+# OMPL backends are time-limited; the base gets a shorter budget than the arm.
+BASE_PLANNER_OVERRIDES: dict[str, dict] = {
+    "ompl_rrtconnect": {"time_limit_s": 0.5},
+    "ompl_prm": {"time_limit_s": 0.5},
+}
+
+
+def wrap_angle(a: float | np.ndarray) -> float | np.ndarray:
+    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def make_base_planner(name: str, **overrides) -> Planner:
+    """``make_planner`` with the base's defaults (shorter OMPL time limit)."""
+    return make_planner(name, **{**BASE_PLANNER_OVERRIDES.get(name, {}), **overrides})
+
+
+# ----------------------------------------------------------------------------- collision
+
+
+class FootprintChecker:
+    """Disc-footprint collision checks against a LocalMap, in the robot frame."""
+
+    def __init__(self, local_map: LocalMap, footprint_radius: float) -> None:
+        self.local_map = local_map
+        self.radius = float(footprint_radius)
+        self.clearance_grid = self._clearance_grid(local_map, self.radius)
+        self.start_clearance = self.clearance((0.0, 0.0))
+
+    @staticmethod
+    def _clearance_grid(local_map: LocalMap, radius: float) -> np.ndarray:
+        obstacle = local_map.grid != FREE
+        centres = local_map.cell_to_point(np.arange(local_map.size))
+        in_robot_disc = centres[:, None] ** 2 + centres[None, :] ** 2 <= radius**2
+        obstacle &= ~(in_robot_disc & (local_map.grid == UNKNOWN))  # the robot's own disc is seen free
+        # One ring of obstacle cells around the window: the unseen outside counts as obstacle.
+        padded = np.pad(obstacle, 1, constant_values=True)
+        return distance_transform_edt(~padded)[1:-1, 1:-1] * local_map.resolution
+
+    def clearance(self, xy: np.ndarray | tuple[float, float]) -> float:
+        """Distance (m) from the cell under ``xy`` to the nearest obstacle cell; 0 outside the map."""
+        # Scalar form of LocalMap.point_to_cell: this is the planners' inner loop.
+        m = self.local_map
+        i = math.floor((float(xy[0]) + m.half_extent) / m.resolution)
+        j = math.floor((float(xy[1]) + m.half_extent) / m.resolution)
+        if not (0 <= i < m.size and 0 <= j < m.size):
+            return 0.0
+        return float(self.clearance_grid[i, j])
+
+    def footprint_hits_obstacle(self, q: np.ndarray) -> bool:
+        return self.clearance(q) < self.radius
+
+    def in_collision(self, q: np.ndarray) -> bool:
+        clearance = self.clearance(q)
+        if clearance >= self.radius:
+            return False
+        near_start = math.hypot(q[0], q[1]) <= self.radius
+        return not (near_start and clearance >= self.start_clearance)
+
+
+# ----------------------------------------------------------------------------- extension
+
+
+def _rotation(xy: np.ndarray, yaw_from: float, yaw_to: float, step: float) -> list[np.ndarray]:
+    """States after ``yaw_from`` up to ``yaw_to`` (shortest way), excluding the first."""
+    delta = float(wrap_angle(yaw_to - yaw_from))
+    n = int(math.ceil(abs(delta) / step - 1e-9))
+    return [np.array([xy[0], xy[1], wrap_angle(yaw_from + delta * k / n)]) for k in range(1, n + 1)]
+
+
+def _drive(xy_from: np.ndarray, xy_to: np.ndarray, yaw: float, step: float) -> list[np.ndarray]:
+    """States after ``xy_from`` up to ``xy_to`` at constant ``yaw``, excluding the first."""
+    n = int(math.ceil(np.linalg.norm(xy_to - xy_from) / step - 1e-9))
+    return [np.array([*(xy_from + (xy_to - xy_from) * k / n), yaw]) for k in range(1, n + 1)]
+
+
+def _heading(q1: np.ndarray, q2: np.ndarray) -> float | None:
+    d = q2[:2] - q1[:2]
+    return None if np.hypot(*d) < 1e-6 else math.atan2(d[1], d[0])
+
+
+def base_extend_fn(step_m: float = BASE_STEP_M, step_rad: float = BASE_STEP_RAD):
+    """Rotate to face the target, drive straight, rotate to the target yaw (both ends included)."""
+
+    def extend(q1: np.ndarray, q2: np.ndarray) -> list[np.ndarray]:
+        q1, q2 = np.asarray(q1, dtype=np.float64), np.asarray(q2, dtype=np.float64)
+        heading = _heading(q1, q2)
+        path = [q1]
+        if heading is not None:
+            path += _rotation(q1[:2], q1[2], heading, step_rad)
+            path += _drive(q1[:2], q2[:2], heading, step_m)
+        path += _rotation(path[-1][:2], path[-1][2], q2[2], step_rad)
+        if len(path) == 1:
+            path.append(q2)
+        return path
+
+    return extend
+
+
+def base_distance_fn(step_m: float = BASE_STEP_M, step_rad: float = BASE_STEP_RAD):
+    """Cost of ``base_extend_fn``'s motion: metres driven plus rotation weighted so that one
+    angular step costs as much as one linear step (i.e. proportional to the number of steps).
+    Scalar ``math`` on purpose: RRT's nearest-neighbour scan calls this thousands of times."""
+    rotation_weight = step_m / step_rad
+
+    def turn(a: float) -> float:
+        return abs((a + math.pi) % (2.0 * math.pi) - math.pi)
+
+    def distance(q1: np.ndarray, q2: np.ndarray) -> float:
+        x1, y1, yaw1 = (float(v) for v in q1)
+        x2, y2, yaw2 = (float(v) for v in q2)
+        dx, dy = x2 - x1, y2 - y1
+        drive = math.hypot(dx, dy)
+        if drive < 1e-6:
+            return rotation_weight * turn(yaw2 - yaw1)
+        heading = math.atan2(dy, dx)
+        return drive + rotation_weight * (turn(heading - yaw1) + turn(yaw2 - heading))
+
+    return distance
+
+
+# ----------------------------------------------------------------------------- planning
+
+
+@dataclass(frozen=True)
+class BasePlanResult:
+    path_world: np.ndarray | None  # (N, 3) world (x, y, yaw), <= 0.05 m / 0.05 rad apart
+    reason: str
+    planning_time_s: float
+    path_length_m: float  # distance driven (rotations excluded); 0 on failure
+    backend: str
+
+    @property
+    def success(self) -> bool:
+        return self.path_world is not None
+
+
+def base_planning_problem(
+    local_map: LocalMap, goal_robot: np.ndarray, checker: FootprintChecker
+) -> PlanningProblem:
+    """The robot-frame (x, y, yaw) problem over the whole map window."""
+    reach = local_map.half_extent
+    return PlanningProblem(
+        start=np.zeros(3),
+        goal=np.asarray(goal_robot, dtype=np.float64),
+        lower=np.array([-reach, -reach, -np.pi]),
+        upper=np.array([reach, reach, np.pi]),
+        collision_fn=checker.in_collision,
+        resolutions=np.array([BASE_STEP_M, BASE_STEP_M, BASE_STEP_RAD]),
+        extend_fn=base_extend_fn(),
+        distance_fn=base_distance_fn(),
+    )
+
+
+def plan_base(
+    local_map: LocalMap,
+    goal_xy_yaw_robot_frame: np.ndarray | tuple[float, float, float],
+    planner: Planner | str = "rrt_connect",
+    footprint_radius: float = FETCH_FOOTPRINT_RADIUS,
+    rng: RngLike = None,
+) -> BasePlanResult:
+    """Plan the base from the robot's pose at scan time to a robot-frame goal (x, y, yaw)."""
+    start_time = time.perf_counter()
+    planner = make_base_planner(planner) if isinstance(planner, str) else planner
+    goal = np.asarray(goal_xy_yaw_robot_frame, dtype=np.float64).copy()
+    goal[2] = wrap_angle(goal[2])
+
+    def result(path_robot: list[np.ndarray] | None, reason: str) -> BasePlanResult:
+        elapsed = time.perf_counter() - start_time
+        if path_robot is None:
+            return BasePlanResult(None, reason, elapsed, 0.0, planner.backend)
+        path = np.asarray(path_robot)
+        length = float(np.sum(np.linalg.norm(np.diff(path[:, :2], axis=0), axis=1)))
+        return BasePlanResult(_to_world(local_map, path), reason, elapsed, length, planner.backend)
+
+    if not bool(local_map.contains(goal[:2])):
+        return result(None, "goal outside local map")
+    checker = FootprintChecker(local_map, footprint_radius)
+    if checker.in_collision(goal):
+        return result(None, "goal in collision")
+    if np.hypot(goal[0], goal[1]) < 1e-6:
+        return result(base_extend_fn()(np.zeros(3), goal), "rotation in place")
+    plan = planner.plan(base_planning_problem(local_map, goal, checker), as_generator(rng))
+    return result(plan.path, plan.reason)
+
+
+def _to_world(local_map: LocalMap, path_robot: np.ndarray) -> np.ndarray:
+    xy = local_map.robot_to_world(path_robot[:, :2])
+    yaw = wrap_angle(path_robot[:, 2] + local_map.robot_pose[2])
+    return np.column_stack([xy, yaw])

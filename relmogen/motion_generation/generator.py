@@ -1,0 +1,147 @@
+"""The motion generator (MG): turns one subgoal into a planned, checked, executed motion.
+
+Base subgoal: (x, y, yaw) in the robot frame. The MG scans, builds the 5 m local occupancy
+map, plans with the selected backend, then moves the base along the path kinematically (as
+the original did), checking every waypoint against the FULL simulation and stopping before a
+collision. Arm subgoal: a 3D point plus a horizontal push vector, handed to ``ArmMotion``.
+
+Planners are selected by name and can be swapped at any time (``set_planners``): the policy
+never sees which one runs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import pybullet as p
+
+from relmogen.motion_generation.arm import ArmConfig, ArmMotion
+from relmogen.motion_generation.base_planner import make_base_planner, plan_base
+from relmogen.motion_generation.planners import BACKENDS
+from relmogen.simulation.occupancy import LocalMap, build_local_map
+
+BASE_SPEED = 0.5  # m/s while executing a base path (Fetch tops out at 1.0 m/s)
+BASE_TURN_RATE = 1.0  # rad/s
+
+Tick = Callable[[float], None]  # called with simulated seconds as execution advances
+
+
+@dataclass
+class MotionGeneratorConfig:
+    base_planner: str = "rrt_connect"
+    arm_planner: str = "rrt_connect"
+    arm_collision_checking: bool = True  # the paper trains with False, evaluates with True
+    map_size_m: float = 5.0
+    map_resolution: float = 0.05
+    arm: ArmConfig = field(default_factory=ArmConfig)
+
+    def __post_init__(self):
+        for name in (self.base_planner, self.arm_planner):
+            if name not in BACKENDS:
+                raise ValueError(f"unknown planner {name!r}; valid planners: {', '.join(sorted(BACKENDS))}")
+
+
+@dataclass
+class SubgoalResult:
+    kind: str  # "base" or "arm"
+    planner: str
+    success: bool  # a plan was found and executed (possibly stopped early, see reason)
+    reason: str
+    planning_time_s: float = 0.0
+    path_length_m: float = 0.0
+    sim_time_s: float = 0.0
+
+    def as_info(self) -> dict:
+        return {
+            "subgoal_type": self.kind,
+            "planner": self.planner,
+            "plan_found": self.success,
+            "reason": self.reason,
+            "planning_time_s": self.planning_time_s,
+            "path_length_m": self.path_length_m,
+            "sim_time_s": self.sim_time_s,
+        }
+
+
+class MotionGenerator:
+    def __init__(self, env, config: MotionGeneratorConfig | None = None):
+        self.env = env
+        self.config = config or MotionGeneratorConfig()
+        self.arm = ArmMotion(env.world.client, env.robot, self._arm_config())
+        self.set_planners(self.config.base_planner, self.config.arm_planner)
+
+    def _arm_config(self) -> ArmConfig:
+        from dataclasses import replace
+
+        return replace(self.config.arm, collision_checking=self.config.arm_collision_checking)
+
+    def set_planners(self, base: str | None = None, arm: str | None = None) -> None:
+        """Swap planner backends by name; takes effect from the next subgoal."""
+        if base is not None:
+            self._base_planner = make_base_planner(base)
+            self.config.base_planner = base
+        if arm is not None:
+            self.arm.set_planner(arm)
+            self.config.arm_planner = arm
+
+    def set_arm_collision_checking(self, enabled: bool) -> None:
+        self.config.arm_collision_checking = bool(enabled)
+        self.arm.config = self._arm_config()
+
+    # -------------------------------------------------------------------------- base
+    def local_map(self, ranges: np.ndarray | None = None, resolution: float | None = None) -> LocalMap:
+        """The occupancy map of a scan (a fresh one unless ``ranges`` are given)."""
+        env = self.env
+        lidar_position, _ = env.robot.lidar_pose()
+        pose = env.robot.base_pose()
+        lidar_xy = self._robot_frame_xy(np.asarray(lidar_position)[:2], pose)
+        return build_local_map(
+            env.scan() if ranges is None else ranges, env.lidar.angles, lidar_xy, env.lidar.max_range,
+            tuple(pose), env.robot.spec.base_radius, self.config.map_size_m,
+            resolution or self.config.map_resolution,
+        )
+
+    @staticmethod
+    def _robot_frame_xy(xy: np.ndarray, pose) -> tuple[float, float]:
+        x, y, yaw = pose
+        dx, dy = xy[0] - x, xy[1] - y
+        return (np.cos(yaw) * dx + np.sin(yaw) * dy, -np.sin(yaw) * dx + np.cos(yaw) * dy)
+
+    def move_base(self, goal_robot_frame: np.ndarray, rng: np.random.Generator, tick: Tick) -> SubgoalResult:
+        planner = self.config.base_planner
+        plan = plan_base(self.local_map(), goal_robot_frame, self._base_planner,
+                         self.env.robot.spec.base_radius, rng)
+        if not plan.success:
+            return SubgoalResult("base", planner, False, plan.reason, plan.planning_time_s)
+        driven, sim_time, stopped_at = self._follow(plan.path_world, tick)
+        reason = plan.reason if stopped_at is None else f"stopped before a collision at waypoint {stopped_at}"
+        return SubgoalResult("base", planner, True, reason, plan.planning_time_s, driven, sim_time)
+
+    def _follow(self, path: np.ndarray, tick: Tick) -> tuple[float, float, int | None]:
+        """Move the base through ``path`` kinematically; stop at the last collision-free waypoint."""
+        robot, client = self.env.robot, self.env.world.client
+        driven = sim_time = 0.0
+        previous = np.asarray(robot.base_pose(), dtype=np.float64)
+        for index, waypoint in enumerate(path[1:], start=1):
+            robot.set_base_pose(*waypoint)
+            p.performCollisionDetection(physicsClientId=client)
+            if self.env.collisions():
+                robot.set_base_pose(*previous)
+                return driven, sim_time, index
+            step = float(np.hypot(*(waypoint[:2] - previous[:2])))
+            turn = abs(float((waypoint[2] - previous[2] + np.pi) % (2 * np.pi) - np.pi))
+            dt = step / BASE_SPEED + turn / BASE_TURN_RATE
+            driven, sim_time, previous = driven + step, sim_time + dt, waypoint
+            tick(dt)
+        robot.stop_wheels()
+        return driven, sim_time, None
+
+    # --------------------------------------------------------------------------- arm
+    def reach_and_push(self, point_world: np.ndarray, push_world: np.ndarray, rng: np.random.Generator,
+                       tick: Tick) -> SubgoalResult:
+        dt = self.env.world.time_step
+        result = self.arm.reach_and_push(point_world, push_world, rng, on_physics_steps=lambda n: tick(n * dt))
+        return SubgoalResult("arm", self.config.arm_planner, result.success, result.reason,
+                             result.planning_time_s, 0.0, result.simulated_time_s)

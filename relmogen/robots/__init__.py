@@ -1,0 +1,1 @@
+"""Robots: embodiment specs (YAML data) and the PyBullet ``Robot`` wrapper."""

@@ -1,0 +1,136 @@
+"""Base planner on synthetic local maps, for every planner backend."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mg_maps import ROBOT_POSE, cluttered_map, doorway_map, empty_map, random_free_goal
+
+from relmogen.motion_generation.base_planner import (
+    BASE_STEP_M,
+    BASE_STEP_RAD,
+    FETCH_FOOTPRINT_RADIUS,
+    FootprintChecker,
+    base_distance_fn,
+    base_extend_fn,
+    plan_base,
+    wrap_angle,
+)
+from relmogen.motion_generation.planners import BACKENDS, make_planner
+from relmogen.simulation.occupancy import OCCUPIED, UNKNOWN, LocalMap
+
+ALL_BACKENDS = sorted(BACKENDS)
+TOL = 1e-6
+
+
+def assert_valid_path(local_map: LocalMap, result, goal_robot) -> None:
+    assert result.success, result.reason
+    path = result.path_world
+    assert path.ndim == 2 and path.shape[1] == 3
+    start_world = np.array(local_map.robot_pose)
+    goal_world = np.array([*local_map.robot_to_world(np.asarray(goal_robot[:2])),
+                           wrap_angle(goal_robot[2] + local_map.robot_pose[2])])
+    np.testing.assert_allclose(path[0], start_world, atol=TOL)
+    np.testing.assert_allclose(path[-1, :2], goal_world[:2], atol=TOL)
+    assert abs(wrap_angle(path[-1, 2] - goal_world[2])) < TOL
+    steps = np.diff(path, axis=0)
+    assert np.all(np.hypot(steps[:, 0], steps[:, 1]) <= BASE_STEP_M + TOL)
+    assert np.all(np.abs(wrap_angle(steps[:, 2])) <= BASE_STEP_RAD + TOL)
+    # Every waypoint's footprint is free (re-expressed in the robot frame at scan time).
+    checker = FootprintChecker(local_map, FETCH_FOOTPRINT_RADIUS)
+    for xy in local_map.world_to_robot(path[:, :2]):
+        assert not checker.in_collision(np.array([xy[0], xy[1], 0.0]))
+    driven = np.sum(np.hypot(steps[:, 0], steps[:, 1]))
+    assert result.path_length_m == pytest.approx(driven)
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_empty_room_plans_straight(backend):
+    local_map, goal = empty_map(), np.array([1.8, -1.2, 2.5])
+    result = plan_base(local_map, goal, make_planner(backend), rng=0)
+    assert_valid_path(local_map, result, goal)
+    assert result.reason == "direct connection"
+    assert result.path_length_m == pytest.approx(np.hypot(1.8, -1.2))
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_doorway(backend):
+    local_map, goal = doorway_map(), np.array([2.0, -1.0, 0.0])
+    result = plan_base(local_map, goal, backend, rng=1)
+    assert_valid_path(local_map, result, goal)
+    assert result.path_length_m > np.hypot(2.0, -1.0)  # had to detour through the gap
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cluttered_room(backend, seed):
+    rng = np.random.default_rng(100 + seed)
+    local_map = cluttered_map(rng)
+    goal = random_free_goal(local_map, rng)
+    result = plan_base(local_map, goal, backend, rng=seed)
+    assert_valid_path(local_map, result, goal)
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_rotation_in_place_returns_immediately(backend):
+    local_map, goal = doorway_map(), np.array([0.0, 0.0, -2.0])
+    result = plan_base(local_map, goal, backend, rng=0)
+    assert_valid_path(local_map, result, goal)
+    assert result.reason == "rotation in place"
+    assert result.path_length_m == 0.0
+    assert len(result.path_world) == int(np.ceil(2.0 / BASE_STEP_RAD)) + 1
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_start_touching_obstacle_can_leave(backend):
+    local_map = empty_map()
+    grid = local_map.grid.copy()
+    x = local_map.cell_to_point(np.arange(local_map.size))
+    grid[(x > 0.22) & (x < 0.4), :] = OCCUPIED  # wall 0.22 m ahead: inside the 0.279 m disc
+    local_map = LocalMap(grid, local_map.resolution, local_map.robot_pose)
+    checker = FootprintChecker(local_map, FETCH_FOOTPRINT_RADIUS)
+    assert checker.footprint_hits_obstacle(np.zeros(3))
+    goal = np.array([-1.5, 0.5, 0.0])
+    result = plan_base(local_map, goal, backend, rng=0)
+    assert_valid_path(local_map, result, goal)
+    # ...but may not push further into the wall.
+    assert checker.in_collision(np.array([0.1, 0.0, 0.0]))
+
+
+def test_unknown_counts_as_obstacle_except_under_robot():
+    grid = np.full((100, 100), UNKNOWN, dtype=np.uint8)
+    local_map = LocalMap(grid, 0.05, ROBOT_POSE)
+    checker = FootprintChecker(local_map, FETCH_FOOTPRINT_RADIUS)
+    assert not checker.in_collision(np.zeros(3))
+    result = plan_base(local_map, np.array([1.0, 0.0, 0.0]), "rrt_connect", rng=0)
+    assert not result.success and result.reason == "goal in collision"
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+@pytest.mark.parametrize(
+    ("goal", "reason"),
+    [((3.0, 0.0, 0.0), "goal outside local map"), ((1.0, -1.0, 0.0), "goal in collision")],
+)
+def test_bad_goal_fails_at_once(backend, goal, reason):
+    result = plan_base(doorway_map(), np.array(goal), backend, rng=0)
+    assert not result.success and result.path_world is None
+    assert result.reason == reason
+    assert result.planning_time_s < 0.05
+
+
+@pytest.mark.parametrize("backend", ["rrt_connect", "lazy_prm", "ompl_rrtconnect"])
+def test_same_seed_same_path(backend):
+    local_map, goal = doorway_map(), np.array([2.0, -1.0, 1.0])
+    first = plan_base(local_map, goal, backend, rng=7)
+    second = plan_base(local_map, goal, backend, rng=7)
+    np.testing.assert_array_equal(first.path_world, second.path_world)
+
+
+def test_extend_fn_rotates_drives_rotates():
+    path = np.array(base_extend_fn()(np.array([0.0, 0.0, 0.0]), np.array([0.0, 1.0, np.pi])))
+    heading_reached = np.flatnonzero(np.isclose(path[:, 2], np.pi / 2))[0]
+    assert np.allclose(path[: heading_reached + 1, :2], 0.0)  # turn on the spot first
+    assert np.allclose(path[heading_reached:-1, 0], 0.0)  # then drive along +y
+    assert np.isclose(path[-1, 2], np.pi) or np.isclose(path[-1, 2], -np.pi)
+    distance = base_distance_fn()(np.zeros(3), np.array([0.0, 1.0, np.pi]))
+    assert distance == pytest.approx(1.0 + np.pi / 2 + np.pi / 2)

@@ -1,0 +1,79 @@
+import numpy as np
+import pybullet as p
+import pytest
+
+from relmogen.simulation.sensors import INVALID_DEPTH, Camera, CameraIntrinsics, Lidar
+from relmogen.simulation.world import World
+
+
+@pytest.fixture
+def world():
+    w = World()
+    yield w
+    w.close()
+
+
+def add_box(client, xyz, half, rgba=(1, 0, 0, 1)):
+    col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client)
+    vis = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=rgba, physicsClientId=client)
+    return p.createMultiBody(0, col, vis, basePosition=xyz, physicsClientId=client)
+
+
+def yaw_rotation(yaw):
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+def test_intrinsics_of_a_90_degree_camera():
+    k = CameraIntrinsics(128, 128, 90.0)
+    assert k.fx == pytest.approx(64.0)
+    assert (k.cx, k.cy) == (64.0, 64.0)
+
+
+@pytest.mark.parametrize("u,v,depth", [(0, 0, 1.0), (64, 64, 2.0), (100, 17, 0.7), (127, 127, 2.9)])
+def test_deproject_project_round_trip(u, v, depth):
+    k = CameraIntrinsics(128, 128, 90.0)
+    point = k.deproject(u, v, depth)
+    assert point[0] == pytest.approx(depth)
+    assert k.project(point) == pytest.approx((u, v, depth))
+
+
+def test_pixel_plus_depth_lands_on_the_rendered_surface(world):
+    # a wall facing the camera 1.5 m ahead: every deprojected pixel lies on its face
+    add_box(world.client, [2.0, 0.0, 1.0], [0.5, 3.0, 3.0])
+    camera = Camera(world.client)
+    position, rotation = np.array([0.0, 0.0, 1.0]), yaw_rotation(0.3)
+    frame = camera.capture(position, rotation)
+    for u, v in [(64, 64), (10, 20), (120, 100), (64, 5)]:
+        point = camera.pixel_to_world(frame, u, v)
+        assert point[0] == pytest.approx(1.5, abs=0.02)
+        # and the point projects back to the same pixel
+        local = rotation.T @ (point - position)
+        pu, pv, _ = camera.intrinsics.project(local)
+        assert (pu, pv) == pytest.approx((u, v), abs=1e-6)
+
+
+def test_out_of_range_depth_reads_invalid_and_cannot_be_deprojected(world):
+    add_box(world.client, [0.2, 0.0, 1.0], [0.05, 0.5, 0.5])  # 0.15 m away: too near
+    camera = Camera(world.client)
+    frame = camera.capture(np.array([0.0, 0.0, 1.0]), np.eye(3))
+    assert frame.depth.dtype == np.float32 and frame.rgb.dtype == np.uint8
+    assert frame.depth[64, 64] == INVALID_DEPTH
+    assert frame.depth[0, 0] == INVALID_DEPTH  # nothing there at all (beyond 3 m)
+    with pytest.raises(ValueError, match="no valid depth"):
+        camera.pixel_to_world(frame, 64, 64)
+    with pytest.raises(ValueError, match="outside"):
+        camera.pixel_to_world(frame, 200, 3)
+
+
+def test_lidar_measures_distance_to_walls(world):
+    add_box(world.client, [3.0, 0.0, 0.5], [0.1, 5.0, 1.0])  # wall 2.9 m ahead
+    lidar = Lidar(world.client)
+    ranges = lidar.scan(np.array([0.0, 0.0, 0.3]), 0.0)
+    assert ranges.shape == (220,)
+    centre = ranges[np.argmin(np.abs(lidar.angles))]
+    assert centre == pytest.approx(2.9, abs=0.01)
+    sideways = ranges[np.argmin(np.abs(lidar.angles - np.pi / 2))]
+    assert sideways == pytest.approx(25.0)  # nothing to the left
+    rotated = lidar.scan(np.array([0.0, 0.0, 0.3]), np.pi)  # facing away
+    assert rotated[np.argmin(np.abs(lidar.angles))] == pytest.approx(25.0)
