@@ -45,7 +45,8 @@ Q_DOWNSAMPLE = 4
 
 
 class RewardAccumulator:
-    """Sums task rewards at 0.1 s boundaries of simulated time while the MG executes."""
+    """Sums task rewards at 0.1 s boundaries of simulated time while the MG executes;
+    ``close`` adds the rest and the per-decision terms once."""
 
     def __init__(self, env: RelmogenEnv):
         self.env = env
@@ -58,8 +59,12 @@ class RewardAccumulator:
         if self.pending >= 0.1 - 1e-9:
             self.flush()
 
-    def flush(self) -> None:
-        reward, terms = self.env.task.reward()
+    def close(self) -> RewardAccumulator:
+        self.flush(decision=True)
+        return self
+
+    def flush(self, decision: bool = False) -> None:
+        reward, terms = self.env.task.reward(decision)
         self.total += reward
         for key, value in terms.items():
             self.terms[key] = self.terms.get(key, 0.0) + value
@@ -86,8 +91,7 @@ class SubgoalControl:
     def execute_base(self, goal_robot_frame: np.ndarray) -> tuple[SubgoalResult, RewardAccumulator]:
         rewards = RewardAccumulator(self.env)
         result = self.mg.move_base(goal_robot_frame, self.env.np_random, rewards.tick)
-        rewards.flush()
-        return result, rewards
+        return result, rewards.close()
 
     def execute_arm(self, pixel_row: int, pixel_col: int, push_base: np.ndarray):
         rewards = RewardAccumulator(self.env)
@@ -95,14 +99,13 @@ class SubgoalControl:
         depth = float(env.last_frame.depth[pixel_row, pixel_col])
         if depth <= 0.0:
             result = SubgoalResult("arm", self.mg.config.arm_planner, False, "pixel has no depth")
-            return result, rewards
+            return result, rewards.close()
         point = env.camera.pixel_to_world(env.last_frame, pixel_col, pixel_row)
         yaw = env.robot.base_pose()[2]
         push_world = np.array([np.cos(yaw) * push_base[0] - np.sin(yaw) * push_base[1],
                                np.sin(yaw) * push_base[0] + np.cos(yaw) * push_base[1], 0.0])
         result = self.mg.reach_and_push(point, push_world, env.np_random, rewards.tick)
-        rewards.flush()
-        return result, rewards
+        return result, rewards.close()
 
     def outcome(self, result: SubgoalResult, rewards: RewardAccumulator, **extra: Any) -> StepOutcome:
         task = self.env.task
@@ -156,7 +159,7 @@ class SubgoalDControl(SubgoalControl):
         self.push_length = float(push_length)
         self.num_base = YAW_BINS * self.q * self.q
         self.action_space = spaces.Discrete(self.num_base + PUSH_BINS * self.q * self.q)
-        self.map_channels = 2 if env.task.map_marks() is not None else 1
+        self.map_channels = 2 if env.task.has_map_marks else 1
         self._base_mask = np.ones((self.q, self.q), dtype=bool)
 
     # ------------------------------------------------------------------- index mapping
@@ -178,7 +181,7 @@ class SubgoalDControl(SubgoalControl):
         part, bin_, i, j = self.decode(index)
         if part not in self.parts:
             skipped = SubgoalResult(part, "none", False, f"{part} subgoals are not used by {self.env.task.name}")
-            return self.outcome(skipped, RewardAccumulator(self.env), action_index=index)
+            return self.outcome(skipped, RewardAccumulator(self.env).close(), action_index=index)
         if part == "base":
             cell = 5.0 / self.q
             goal = np.array([(i + 0.5) * cell - 2.5, (j + 0.5) * cell - 2.5, -np.pi + bin_ * 2 * np.pi / YAW_BINS])
@@ -203,9 +206,8 @@ class SubgoalDControl(SubgoalControl):
         self._base_mask = self._free_cells(self.mg.local_map(ranges))
         obs_map = self.mg.local_map(ranges, resolution=5.0 / self.map_pixels)
         channels = [obs_map.grid]
-        marks = self.env.task.map_marks()
-        if marks is not None:
-            channels.append(_draw_marks(obs_map, *marks))
+        if self.map_channels == 2:
+            channels.append(_draw_marks(obs_map, *self.env.task.map_marks()))
         return {"local_map": np.stack(channels, axis=-1)}
 
     def extra_observation_space(self) -> dict[str, spaces.Space]:

@@ -43,6 +43,7 @@ class Task:
     joint_steps: ClassVar[int] = 750  # episode length with joint-velocity control
     subgoal_parts: ClassVar[tuple[str, ...]] = ("base", "arm")  # what the subgoal policy may use
     task_obs_dim: ClassVar[int]
+    has_map_marks: ClassVar[bool] = False  # draws goal/waypoints on the SGP-D local map
 
     def __init__(self, ctx: TaskContext):
         self.ctx = ctx
@@ -63,8 +64,9 @@ class Task:
     def after_control_step(self) -> None:
         """Book-keeping after each 0.1 s of simulated time (path length, ...)."""
 
-    def reward(self) -> tuple[float, dict[str, float]]:
-        parts = {term.name: term() for term in self.reward_terms}
+    def reward(self, decision: bool = True) -> tuple[float, dict[str, float]]:
+        """Sum of the reward terms; per-decision terms only when ``decision`` is true."""
+        parts = {term.name: term() for term in self.reward_terms if decision or not term.per_decision}
         return float(sum(parts.values())), parts
 
     def task_obs(self) -> np.ndarray:

@@ -25,6 +25,7 @@ class NavigationTask(Task):
 
     scene_kind: ClassVar[str] = "office"
     subgoal_parts: ClassVar[tuple[str, ...]] = ("base", "arm")
+    has_map_marks: ClassVar[bool] = True
     success_distance: ClassVar[float] = 0.5
     success_reward: ClassVar[float] = 10.0
     geodesic_weight: ClassVar[float] = 1.0

@@ -2,7 +2,10 @@
 
 A task is a list of small reward terms. Each term is reset at the start of an episode and
 then called once per low-level control step (0.1 s); the environment sums the returned values.
-Subgoal controls add up the low-level rewards accrued while one subgoal executes.
+Subgoal controls add up the low-level rewards accrued while one subgoal executes. A
+``StateReward`` (a penalty on the current state, not on progress) is charged once per
+decision instead, so a long motion is not punished for its duration and a no-op subgoal
+costs what standing still for one decision costs.
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ Potential = Callable[[], float]
 
 @dataclass
 class PotentialReward:
+    per_decision = False
+
     """``weight * (previous - current)`` of a potential: positive when the potential falls.
 
     Used for geodesic distance to the goal (weight 1), door opening (potential = -angle),
@@ -45,6 +50,7 @@ class StateReward:
     name: str
     value: Potential
     weight: float = 1.0
+    per_decision = True
 
     def reset(self) -> None:
         pass
@@ -55,6 +61,8 @@ class StateReward:
 
 @dataclass
 class EventReward:
+    per_decision = False
+
     """``weight`` once, on the first step at which ``happened()`` is true (success, button)."""
 
     name: str

@@ -11,7 +11,7 @@ import relmogen  # noqa: F401
 
 @pytest.mark.parametrize("env_id", ["relmogen/PointNav-v0", "relmogen/TabletopReachM-v0"])
 def test_sac_multi_input_policy_runs_200_steps(env_id):
-    env = gym.make(env_id, control="joint", image_size=32)
+    env = gym.make(env_id, control="joint", image_size=64)  # NatureCNN needs >= 36 px
     model = SAC("MultiInputPolicy", env, buffer_size=300, learning_starts=100, batch_size=16,
                 policy_kwargs=dict(net_arch=[32, 32]), seed=0, device="cpu")
     model.learn(total_timesteps=200)
@@ -20,7 +20,8 @@ def test_sac_multi_input_policy_runs_200_steps(env_id):
 
 
 def test_subproc_vec_env_with_two_workers():
-    venv = make_vec_env("relmogen/PointNav-v0", n_envs=2, seed=0, vec_env_cls=SubprocVecEnv,
+    # "module:id" makes freshly spawned workers import relmogen (which registers the ids)
+    venv = make_vec_env("relmogen:relmogen/PointNav-v0", n_envs=2, seed=0, vec_env_cls=SubprocVecEnv,
                         env_kwargs=dict(control="joint", image_size=32),
                         vec_env_kwargs=dict(start_method="spawn"))
     obs = venv.reset()
