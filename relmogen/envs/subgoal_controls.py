@@ -193,7 +193,11 @@ class SubgoalDControl(SubgoalControl):
 
     def _validate(self, action) -> int:
         arr = np.asarray(action)
-        if arr.size != 1 or not np.issubdtype(arr.dtype, np.integer) and not float(arr).is_integer():
+        integral = arr.size == 1 and (
+            np.issubdtype(arr.dtype, np.integer)
+            or (np.issubdtype(arr.dtype, np.floating) and np.isfinite(arr).all() and float(arr).is_integer())
+        )
+        if not integral:
             raise ValueError(f"subgoal-d action must be one integer index, got {action!r}")
         index = int(arr)
         if not 0 <= index < self.action_space.n:

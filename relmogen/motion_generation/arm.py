@@ -237,8 +237,14 @@ class ArmMotion:
         self._move_kinematically(plan.path[-1])
         steps, pushed = self._push(push_vector_world, on_physics_steps)
         self._retreat_and_tuck(push_vector_world)
-        return ArmResult(True, "pushed", planning_time, steps * self.time_step, steps, pushed,
+        return ArmResult(True, self._push_outcome(push_vector_world, pushed), planning_time, steps * self.time_step, steps, pushed,
                          time.perf_counter() - start, ik.config, plan.path)
+
+    def _push_outcome(self, push_vector_world, pushed: float) -> str:
+        commanded = min(float(np.linalg.norm(push_vector_world)), self.config.push_max_length)
+        if pushed < 0.5 * commanded:
+            return f"push blocked: gripper moved {pushed:.3f} of {commanded:.3f} m"
+        return f"pushed {pushed:.3f} of {commanded:.3f} m"
 
     def reach_and_push_pixel(self, camera: Camera, frame: CameraFrame, u: int, v: int, push_vector_world,
                              rng: np.random.Generator,

@@ -37,6 +37,10 @@ from relmogen.motion_generation.planners import (
 from relmogen.simulation.occupancy import FREE, UNKNOWN, LocalMap
 
 FETCH_FOOTPRINT_RADIUS = 0.279
+# The LiDAR sees 220 deg from a point ahead of the base centre, so the space right beside and
+# behind the robot is always UNKNOWN and would box it in. Unknown cells this close to the
+# footprint count as free; every executed waypoint is still checked in the full simulation.
+SELF_BLIND_MARGIN = 0.3
 BASE_STEP_M = 0.05
 BASE_STEP_RAD = 0.05
 # OMPL backends are time-limited; the base gets a shorter budget than the arm.
@@ -65,14 +69,15 @@ class FootprintChecker:
         self.local_map = local_map
         self.radius = float(footprint_radius)
         self.clearance_grid = self._clearance_grid(local_map, self.radius)
-        self.start_clearance = self.clearance((0.0, 0.0))
+        # Cell lookups are off by up to half a cell diagonal: tolerate that near the start.
+        self.start_clearance = self.clearance((0.0, 0.0)) - 0.75 * local_map.resolution
 
     @staticmethod
     def _clearance_grid(local_map: LocalMap, radius: float) -> np.ndarray:
         obstacle = local_map.grid != FREE
         centres = local_map.cell_to_point(np.arange(local_map.size))
-        in_robot_disc = centres[:, None] ** 2 + centres[None, :] ** 2 <= radius**2
-        obstacle &= ~(in_robot_disc & (local_map.grid == UNKNOWN))  # the robot's own disc is seen free
+        near_robot = centres[:, None] ** 2 + centres[None, :] ** 2 <= (radius + SELF_BLIND_MARGIN) ** 2
+        obstacle &= ~(near_robot & (local_map.grid == UNKNOWN))
         # One ring of obstacle cells around the window: the unseen outside counts as obstacle.
         padded = np.pad(obstacle, 1, constant_values=True)
         return distance_transform_edt(~padded)[1:-1, 1:-1] * local_map.resolution

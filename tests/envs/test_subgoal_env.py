@@ -1,0 +1,219 @@
+"""The lifted environment: one step = one subgoal executed by the motion generator."""
+
+import numpy as np
+import pybullet as p
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.motion_generation.planners import BACKENDS
+
+
+@pytest.fixture(scope="module")
+def nav():
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64)
+    yield env
+    env.close()
+
+
+def base_action(angle_deg=0.0, distance=1.0, yaw=0.0):
+    """subgoal-r action for a base subgoal (distance in metres, 0-2)."""
+    return np.array([1.0, angle_deg / 110.0, distance - 1.0, yaw / np.pi, 0, 0, 0, 0], dtype=np.float32)
+
+
+def world_snapshot(env):
+    robot = env.robot
+    joints = robot.get_joint_positions(range(p.getNumJoints(robot.robot_id, physicsClientId=env.world.client)))
+    return np.concatenate([robot.base_pose(), joints])
+
+
+@pytest.mark.parametrize("task", ["PointNav", "TabletopReachM"])
+@pytest.mark.parametrize("control", ["subgoal-r", "subgoal-d"])
+def test_check_env_passes(task, control):
+    env = RelmogenEnv(task=task, control=control, image_size=64)
+    check_env(env, skip_render_check=True)
+    env.close()
+
+
+def test_episode_lengths_are_counted_in_subgoals(nav):
+    assert nav.control.episode_steps == 25
+    reach = RelmogenEnv(task="TabletopReachM", control="subgoal-r", image_size=64)
+    assert reach.control.episode_steps == 5
+    reach.close()
+
+
+def test_rotation_in_place_is_a_valid_plan(nav):
+    nav.reset(seed=0)
+    x, y, yaw = nav.robot.base_pose()
+    _, _, _, _, info = nav.step(base_action(distance=0.0, yaw=90.0 * np.pi / 180 * 180 / np.pi))
+    assert info["plan_found"] and info["reason"] == "rotation in place"
+    assert np.allclose(nav.robot.base_pose()[:2], (x, y), atol=1e-6)
+    assert info["path_length_m"] == 0.0 and info["sim_time_s"] > 0.0
+
+
+def test_failed_plan_is_a_no_op_that_still_counts(nav):
+    nav.reset(seed=0)
+    before = world_snapshot(nav)
+    outcomes = []
+    for seed_angle in np.linspace(-110, 110, 12):  # some of these goals are in walls or furniture
+        _, reward, _, _, info = nav.step(base_action(seed_angle, 2.0))
+        if not info["plan_found"]:
+            outcomes.append(info["reason"])
+            assert reward == 0.0
+            np.testing.assert_allclose(world_snapshot(nav), before, atol=1e-9)
+        else:
+            before = world_snapshot(nav)
+    assert outcomes, "expected at least one infeasible goal among 12 directions at 2 m"
+    assert nav.elapsed_steps == 12
+    assert all(isinstance(r, str) and r for r in outcomes)
+
+
+def test_every_executed_base_waypoint_is_collision_free_in_the_full_simulation(monkeypatch):
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64)
+    visited = []
+    original = env.robot.set_base_pose
+    monkeypatch.setattr(env.robot, "set_base_pose", lambda *pose: (visited.append(pose), original(*pose)))
+    rng = np.random.default_rng(0)
+    executed = 0
+    for episode in range(4):
+        env.reset(seed=episode)
+        for _ in range(10):
+            visited.clear()
+            start = env.robot.base_pose()
+            _, _, terminated, _, info = env.step(base_action(rng.uniform(-110, 110), rng.uniform(0.3, 2.0),
+                                                             rng.uniform(-180, 180)))
+            if not info["plan_found"]:
+                continue
+            executed += 1
+            end = env.robot.base_pose()
+            for pose in visited:  # replay: every pose the MG put the robot at and kept
+                original(*pose)
+                p.performCollisionDetection(physicsClientId=env.world.client)
+                if env.collisions():
+                    assert "stopped before a collision" in info["reason"]
+                    assert not np.allclose(pose, end)
+            original(*end)
+            assert info["path_length_m"] >= np.hypot(*(end[:2] - start[:2])) - 1e-6
+            if terminated:
+                break
+    assert executed >= 10
+    env.close()
+
+
+def test_start_touching_an_obstacle_can_leave_it(nav):
+    nav.reset(seed=0)
+    # back the robot up against the closest wall: face away from it at 0.30 m clearance
+    scan = nav.scan()
+    nearest = int(np.argmin(scan))
+    x, y, yaw = nav.robot.base_pose()
+    toward = yaw + nav.lidar.angles[nearest]
+    gap = float(scan[nearest]) - 0.30 - 0.0
+    nav.robot.set_base_pose(x + gap * np.cos(toward), y + gap * np.sin(toward), toward + np.pi)
+    nav.robot.stop_wheels()
+    _, _, _, _, info = nav.step(base_action(0.0, 0.8))
+    assert info["plan_found"], info["reason"]
+
+
+def test_goal_outside_the_window_or_in_a_wall_fails_at_once_with_a_reason():
+    env = RelmogenEnv(task="PointNav", control="subgoal-d", image_size=64)
+    _, info = env.reset(seed=0)
+    control = env.control
+    blocked = np.argwhere(~info["base_mask"])
+    assert len(blocked), "expected occupied cells in the local map"
+    i, j = blocked[0]
+    _, reward, _, _, info = env.step(control.encode("base", 0, int(i), int(j)))
+    assert not info["plan_found"] and info["reason"] in ("goal in collision", "goal outside local map")
+    assert info["planning_time_s"] < 0.05
+    env.close()
+
+
+def open_direction_deg(env):
+    """Bearing (deg, robot frame) of the longest LiDAR range: somewhere to drive to."""
+    return float(np.rad2deg(env.lidar.angles[int(np.argmax(env.scan()))]))
+
+
+def test_planners_swap_at_test_time_on_the_same_subgoal_sequence():
+    probe = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64)
+    probe.reset(seed=5)
+    bearing = open_direction_deg(probe)
+    probe.close()
+    actions = [base_action(0, 0.0, bearing), base_action(0, 1.0), base_action(0, 0.0, 90), base_action(0, 0.0, -90)]
+    final_poses = {}
+    for backend in sorted(BACKENDS):
+        env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64, base_planner=backend)
+        env.reset(seed=5)
+        infos = [env.step(a)[4] for a in actions]
+        assert {info["planner"] for info in infos} == {backend}
+        assert all(info["plan_found"] for info in infos), [info["reason"] for info in infos]
+        final_poses[backend] = env.robot.base_pose()
+        env.close()
+    poses = np.array(list(final_poses.values()))
+    assert np.allclose(poses, poses[0], atol=0.05)  # the same subgoals end in the same place
+    # and swapping inside one environment, between steps
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64)
+    env.reset(seed=5)
+    for backend, action in zip(sorted(BACKENDS), actions):
+        env.control.mg.set_planners(base=backend)
+        info = env.step(action)[4]
+        assert info["planner"] == backend and info["plan_found"]
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "action,message",
+    [(np.full(8, np.nan), "NaN"), (np.zeros(5), "shape"), (np.array([np.inf] * 8), "infinite")],
+)
+def test_malformed_subgoal_r_actions_raise(nav, action, message):
+    nav.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        nav.step(action)
+
+
+@pytest.mark.parametrize("action,message", [(-1, "outside"), (10**9, "outside"), (2.5, "integer"), ("a", "integer")])
+def test_malformed_subgoal_d_actions_raise(action, message):
+    env = RelmogenEnv(task="PointNav", control="subgoal-d", image_size=64)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        env.step(action)
+    env.close()
+
+
+def test_subgoal_d_index_mapping_round_trips():
+    env = RelmogenEnv(task="TabletopReachM", control="subgoal-d", image_size=128)
+    control = env.control
+    assert control.action_space.n == 24_576  # 12 x 32 x 32 base + 12 x 32 x 32 arm
+    rng = np.random.default_rng(0)
+    for index in rng.integers(0, control.action_space.n, 200):
+        assert control.encode(*control.decode(int(index))) == index
+    assert control.decode(0) == ("base", 0, 0, 0)
+    assert control.decode(12 * 32 * 32) == ("arm", 0, 0, 0)
+    env.close()
+
+
+def test_arm_pixel_without_depth_is_a_no_op_with_a_reason(nav):
+    nav.reset(seed=0)
+    nav.last_frame.depth[0, 0] = 0.0  # force: the top-left pixel has no return
+    before = world_snapshot(nav)
+    action = np.array([-1, 0, 0, 0, -1, -1, 0.5, 0], dtype=np.float32)
+    _, reward, _, _, info = nav.step(action)
+    assert info["subgoal_type"] == "arm" and info["reason"] == "pixel has no depth"
+    assert not info["plan_found"]
+    np.testing.assert_allclose(world_snapshot(nav), before, atol=1e-9)
+
+
+def test_pushing_into_a_wall_reports_a_blocked_push():
+    env = RelmogenEnv(task="TabletopReachM", control="subgoal-r", image_size=64, arm_collision=False)
+    env.reset(seed=0)
+    # the table top straight ahead, pushed down into the table: the gripper cannot go far
+    h, w = env.last_frame.depth.shape
+    rows = [r for r in range(h // 2, h) if env.last_frame.depth[r, w // 2] > 0]
+    row = rows[len(rows) // 2]
+    action = np.array([-1, 0, 0, 0, 2 * row / h - 1, 0.0, 1.0, 0.0], dtype=np.float32)
+    reasons = []
+    for _ in range(3):
+        _, _, terminated, _, info = env.step(action)
+        reasons.append(info["reason"])
+        if terminated:
+            break
+    assert any(r.startswith("push") for r in reasons), reasons
+    env.close()
