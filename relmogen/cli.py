@@ -1,7 +1,11 @@
 """The ``relmogen`` command line.
 
     relmogen demo  [--episodes N] [--seed S] [--out DIR] [--json]
-    relmogen bench env [--task T] [--samples N] [--image-size PX] [--json]
+    relmogen oracle --task T [--episodes N] [--policy oracle|random] [--control subgoal-r]
+                    [--scene S] [--base-planner X] [--arm-planner Y] [--arm-collision on|off]
+                    [--gif PATH] [--json]
+    relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
+    relmogen bench planner [--problems N] [--seed S] [--json]
 """
 
 from __future__ import annotations
@@ -12,6 +16,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
+PLANNER_PROBLEMS_DEFAULT = 8  # the whole `bench planner` run stays under ~3 minutes on 2 cores
 
 
 def _print_metrics(metrics: dict, as_json: bool, title: str) -> None:
@@ -37,14 +43,43 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_oracle(args: argparse.Namespace) -> int:
+    from relmogen.experiments.oracle import run_oracle
+
+    result = run_oracle(args.task, args.episodes, args.policy, args.control, args.seed, args.scene,
+                        args.base_planner, args.arm_planner, args.arm_collision == "on", quiet=args.json,
+                        gif=Path(args.gif) if args.gif else None)
+    _print_metrics(result, args.json, f"{args.task}: {args.policy} subgoals")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "env":
         from relmogen.bench.env_bench import bench_env
 
-        result = bench_env(task=args.task, samples=args.samples, image_size=args.image_size)
+        result = bench_env(task=args.task, samples=args.samples, image_size=args.image_size, seed=args.seed,
+                           subgoal_samples=args.subgoal_samples)
+    elif args.what == "planner":
+        return _bench_planner(args)
     else:  # argparse restricts the choices
         raise AssertionError(args.what)
     _print_metrics(result, args.json, f"bench {args.what}")
+    return 0
+
+
+def _bench_planner(args: argparse.Namespace) -> int:
+    from relmogen.bench.planner_bench import bench_planner, planning_runs, print_planner_table
+
+    if args.json:
+        print(json.dumps(bench_planner(problems=args.problems, seed=args.seed), sort_keys=True))
+        return 0
+    from rich.console import Console
+    from rich.progress import Progress
+
+    with Progress(console=Console(stderr=True), transient=True) as progress:
+        task = progress.add_task("planning", total=planning_runs(args.problems))
+        result = bench_planner(problems=args.problems, seed=args.seed, advance=lambda: progress.advance(task))
+    print_planner_table(result)
     return 0
 
 
@@ -60,11 +95,30 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     demo.set_defaults(func=cmd_demo)
 
+    oracle = sub.add_parser("oracle", help="run the scripted (or random) subgoal policy of a task")
+    oracle.add_argument("--task", required=True)
+    oracle.add_argument("--episodes", type=_positive_int, default=10)
+    oracle.add_argument("--policy", choices=["oracle", "random"], default="oracle")
+    oracle.add_argument("--control", default="subgoal-r")
+    oracle.add_argument("--seed", type=int, default=0)
+    oracle.add_argument("--scene", default=None)
+    oracle.add_argument("--base-planner", default="rrt_connect")
+    oracle.add_argument("--arm-planner", default="rrt_connect")
+    oracle.add_argument("--arm-collision", choices=["on", "off"], default="on")
+    oracle.add_argument("--gif", default=None, help="also record one episode to this GIF")
+    oracle.add_argument("--json", action="store_true")
+    oracle.set_defaults(func=cmd_oracle)
+
     bench = sub.add_parser("bench", help="speed benchmarks")
-    bench.add_argument("what", choices=["env"])
-    bench.add_argument("--task", default="PointNav")
-    bench.add_argument("--samples", type=_positive_int, default=200)
-    bench.add_argument("--image-size", type=_positive_int, default=128)
+    bench.add_argument("what", choices=["env", "planner"])
+    bench.add_argument("--task", default="PointNav", help="env: task of the joint-velocity steps")
+    bench.add_argument("--samples", type=_positive_int, default=200, help="env: joint-velocity steps")
+    bench.add_argument("--image-size", type=_positive_int, default=128, help="env: camera resolution")
+    bench.add_argument("--subgoal-samples", type=_non_negative_int, default=20,
+                       help="env: lifted steps of each kind, base and arm (0 skips them)")
+    bench.add_argument("--problems", type=_positive_int, default=PLANNER_PROBLEMS_DEFAULT,
+                       help=f"planner: problems per category (default {PLANNER_PROBLEMS_DEFAULT})")
+    bench.add_argument("--seed", type=int, default=0)
     bench.add_argument("--json", action="store_true")
     bench.set_defaults(func=cmd_bench)
     return parser
@@ -74,6 +128,13 @@ def _positive_int(text: str) -> int:
     value = int(text)
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text}")
     return value
 
 

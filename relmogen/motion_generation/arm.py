@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 import time
+from typing import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -223,7 +224,10 @@ class ArmMotion:
     # ------------------------------------------------------------------ the subgoal
 
     def reach_and_push(self, target_xyz_world, push_vector_world, rng: np.random.Generator,
-                       on_physics_steps: PhysicsCallback | None = None) -> ArmResult:
+                       on_physics_steps: PhysicsCallback | None = None,
+                       on_reached: Callable[[list[Config]], None] | None = None) -> ArmResult:
+        """IK, plan, move to the target, push, come back. ``on_reached(path)`` is called when
+        the gripper is at the target, before the push (the task may check it there)."""
         start = time.perf_counter()
         ik = self.solve_ik(np.asarray(target_xyz_world, dtype=np.float64), rng)
         if ik.config is None:
@@ -235,6 +239,8 @@ class ArmMotion:
             return ArmResult(False, f"no arm plan: {plan.reason}", planning_time_s=planning_time,
                              wall_time_s=time.perf_counter() - start, goal_config=ik.config)
         self._move_kinematically(plan.path[-1])
+        if on_reached is not None:
+            on_reached(plan.path)
         steps, pushed = self._push(push_vector_world, on_physics_steps)
         self._retreat_and_tuck(push_vector_world)
         return ArmResult(True, self._push_outcome(push_vector_world, pushed), planning_time, steps * self.time_step, steps, pushed,

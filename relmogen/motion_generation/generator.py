@@ -24,6 +24,7 @@ from relmogen.simulation.occupancy import LocalMap, build_local_map
 
 BASE_SPEED = 0.5  # m/s while executing a base path (Fetch tops out at 1.0 m/s)
 BASE_TURN_RATE = 1.0  # rad/s
+ARM_JOINT_SPEED = 1.0  # rad/s of the fastest-moving joint while approaching an arm subgoal
 
 Tick = Callable[[float], None]  # called with simulated seconds as execution advances
 
@@ -153,6 +154,14 @@ class MotionGenerator:
     def reach_and_push(self, point_world: np.ndarray, push_world: np.ndarray, rng: np.random.Generator,
                        tick: Tick) -> SubgoalResult:
         dt = self.env.world.time_step
-        result = self.arm.reach_and_push(point_world, push_world, rng, on_physics_steps=lambda n: tick(n * dt))
+        approach = {"time": 0.0}
+
+        def reached(path) -> None:
+            steps = np.abs(np.diff(np.asarray(path), axis=0)).max(axis=1) if len(path) > 1 else np.zeros(1)
+            approach["time"] = float(steps.sum()) / ARM_JOINT_SPEED
+            tick(approach["time"])
+
+        result = self.arm.reach_and_push(point_world, push_world, rng, on_physics_steps=lambda n: tick(n * dt),
+                                         on_reached=reached)
         return SubgoalResult("arm", self.config.arm_planner, result.success, result.reason,
-                             result.planning_time_s, 0.0, result.simulated_time_s)
+                             result.planning_time_s, 0.0, approach["time"] + result.simulated_time_s)

@@ -1,0 +1,90 @@
+"""Run policies for whole episodes and aggregate the task metrics with the project's keys.
+
+Every command that prints metrics uses the same keys: ``success_rate``, ``spl``,
+``closed_5``, ``closed_10`` (items closed / chairs tucked at the tight and loose tolerance,
+mean per episode), ``episodes``, plus MG statistics when subgoal controls are used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from rich.progress import Progress
+
+from relmogen.envs.relmogen_env import RelmogenEnv
+
+Policy = Callable[[dict], np.ndarray]
+
+
+@dataclass
+class EpisodeRecord:
+    metrics: dict[str, float]
+    episode_return: float
+    steps: int
+    termination: str | None
+    subgoals: list[dict] = field(default_factory=list)  # per-step MG info (subgoal controls)
+    frames: list[np.ndarray] = field(default_factory=list)
+
+
+def run_episode(env: RelmogenEnv, act: Policy, seed: int, record_frames: bool = False,
+                on_reset: Callable[[], None] | None = None) -> EpisodeRecord:
+    obs, _ = env.reset(seed=seed)
+    if on_reset is not None:
+        on_reset()
+    frames = [env.third_person_image()] if record_frames else []
+    subgoals, done, info = [], False, {}
+    while not done:
+        obs, _, terminated, truncated, info = env.step(act(obs))
+        done = terminated or truncated
+        if "subgoal_type" in info:
+            subgoals.append({k: info[k] for k in ("subgoal_type", "plan_found", "reason", "planner")})
+        if record_frames:
+            frames.append(env.third_person_image())
+    return EpisodeRecord(info["metrics"], env.episode_return, env.elapsed_steps, info["termination"], subgoals, frames)
+
+
+def run_episodes(env: RelmogenEnv, act: Policy, episodes: int, seed: int = 0, quiet: bool = False,
+                 on_reset: Callable[[], None] | None = None, description: str = "episodes") -> list[EpisodeRecord]:
+    records = []
+    with Progress(disable=quiet, transient=True) as progress:
+        bar = progress.add_task(description, total=episodes)
+        for episode in range(episodes):
+            records.append(run_episode(env, act, seed + episode, on_reset=on_reset))
+            progress.advance(bar)
+    return records
+
+
+def aggregate(records: list[EpisodeRecord]) -> dict[str, float]:
+    """Means over episodes with the project-wide keys."""
+    if not records:
+        raise ValueError("no episodes to aggregate")
+    keys = sorted({k for r in records for k in r.metrics})
+    mean = {k: float(np.mean([r.metrics.get(k, 0.0) for r in records])) for k in keys}
+    result = {
+        "episodes": len(records),
+        "success_rate": mean.pop("success", 0.0),
+        "spl": mean.pop("spl", 0.0),
+        "closed_5": mean.pop("closed_5", 0.0),
+        "closed_10": mean.pop("closed_10", 0.0),
+        "mean_return": float(np.mean([r.episode_return for r in records])),
+        "mean_steps": float(np.mean([r.steps for r in records])),
+    }
+    result.update(mean)
+    result.update(_subgoal_statistics(records))
+    return result
+
+
+def _subgoal_statistics(records: list[EpisodeRecord]) -> dict[str, float]:
+    subgoals = [s for r in records for s in r.subgoals]
+    if not subgoals:
+        return {}
+    base = [s for s in subgoals if s["subgoal_type"] == "base"]
+    return {
+        "subgoal_success_rate": float(np.mean([s["plan_found"] for s in subgoals])),
+        "base_fraction": len(base) / len(subgoals),
+        "base_plan_rate": float(np.mean([s["plan_found"] for s in base])) if base else 0.0,
+        "arm_plan_rate": float(np.mean([s["plan_found"] for s in subgoals if s["subgoal_type"] == "arm"]))
+        if len(base) < len(subgoals) else 0.0,
+    }

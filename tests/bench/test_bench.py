@@ -1,0 +1,93 @@
+"""Tiny runs of ``relmogen bench planner`` and ``relmogen bench env``: every key present,
+numbers finite, rates in [0, 1]. Figures that can be undefined in a tiny run (no successful
+plan) are null; everything else must be a finite number."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from relmogen.bench.planner_bench import BACKEND_NAMES
+from relmogen.bench.planner_problems import ARM_CATEGORIES, BASE_CATEGORIES
+from relmogen.cli import main
+
+BACKEND_KEYS = {"attempts", "success_rate", "median_ms", "p95_ms", "mean_path_length", "success_by_category"}
+NULLABLE_BACKEND_KEYS = {"success_rate", "median_ms", "p95_ms", "mean_path_length"}
+ENV_KEYS = {"task", "image_size", "samples", "joint_step_ms", "floor_ms", "ratio", "reset_ms", "subgoal_samples",
+            "subgoal_base_step_ms", "subgoal_base_step_all_ms", "subgoal_base_plan_rate", "base_step_vs_floor",
+            "subgoal_arm_step_ms", "subgoal_arm_step_all_ms", "subgoal_arm_plan_rate", "arm_step_vs_floor"}
+ENV_NULLABLE = {"subgoal_base_step_ms", "base_step_vs_floor", "subgoal_arm_step_ms", "arm_step_vs_floor"}
+
+
+def run_json(capsys, *argv: str) -> dict:
+    assert main(list(argv)) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def numbers(tree):
+    """Every int/float leaf of a JSON tree."""
+    if isinstance(tree, dict):
+        for value in tree.values():
+            yield from numbers(value)
+    elif isinstance(tree, list):
+        for value in tree:
+            yield from numbers(value)
+    elif isinstance(tree, (int, float)) and not isinstance(tree, bool):
+        yield tree
+
+
+def assert_rate(value) -> None:
+    assert value is None or 0.0 <= value <= 1.0
+
+
+@pytest.fixture(scope="module")
+def planner_result():
+    from relmogen.bench.planner_bench import bench_planner
+
+    return bench_planner(problems=1, seed=0)
+
+
+def test_planner_json_has_every_key_and_finite_numbers(planner_result):
+    result = planner_result
+    assert {"seed", "problems_per_category", "backends", "base", "arm", "results", "wall_time_s",
+            "rrt_connect_vs_ompl_rrtconnect", "rrt_connect_vs_ompl_rrtconnect_arm"} <= set(result)
+    assert result["backends"] == list(BACKEND_NAMES)
+    assert set(result["results"]) == set(BACKEND_NAMES)
+    assert result["base"]["problems"] == len(BASE_CATEGORIES)
+    assert set(result["arm"]["by_category"]) == set(ARM_CATEGORIES)
+    assert set(result["rrt_connect_vs_ompl_rrtconnect"]) == {"success_delta", "median_ratio"}
+    assert all(math.isfinite(x) for x in numbers(result))
+
+
+def test_planner_rates_and_per_backend_figures(planner_result):
+    for name, kinds in planner_result["results"].items():
+        for kind, categories in (("base", BASE_CATEGORIES), ("arm", ARM_CATEGORIES)):
+            stats = kinds[kind]
+            assert set(stats) == BACKEND_KEYS, (name, kind)
+            assert set(stats["success_by_category"]) == set(categories)
+            assert_rate(stats["success_rate"])
+            for rate in stats["success_by_category"].values():
+                assert_rate(rate)
+            assert all(stats[k] is not None for k in BACKEND_KEYS - NULLABLE_BACKEND_KEYS)
+    delta = planner_result["rrt_connect_vs_ompl_rrtconnect"]["success_delta"]
+    assert delta is None or -1.0 <= delta <= 1.0
+    # Rotations are feasible by construction: every backend returns them at once.
+    assert planner_result["base"]["feasible_by_category"]["rotation"] == 1
+
+
+def test_env_bench_json_has_subgoal_figures(capsys):
+    result = run_json(capsys, "bench", "env", "--json", "--samples", "3", "--subgoal-samples", "2")
+    assert ENV_KEYS <= set(result)
+    for key in ENV_KEYS - {"task"}:
+        if key in ENV_NULLABLE and result[key] is None:
+            continue
+        assert math.isfinite(result[key]) and result[key] >= 0, key
+    assert_rate(result["subgoal_base_plan_rate"])
+    assert_rate(result["subgoal_arm_plan_rate"])
+
+
+def test_planner_cli_rejects_zero_problems(capsys):
+    with pytest.raises(SystemExit):
+        main(["bench", "planner", "--problems", "0"])
