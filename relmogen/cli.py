@@ -6,6 +6,11 @@
                     [--gif PATH] [--json]
     relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
     relmogen bench planner [--problems N] [--seed S] [--json]
+    relmogen train --task T --algo A [--seed S] [--preset P] [--episodes N] [--max-hours H]
+                   [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
+    relmogen eval RUN_DIR_OR_CHECKPOINT [--episodes N] [--base-planner X] [--arm-planner Y]
+                  [--arm-collision on|off] [--scene A|B] [--json]
+    relmogen report RUN_DIRS... --out DIR
 """
 
 from __future__ import annotations
@@ -50,6 +55,40 @@ def cmd_oracle(args: argparse.Namespace) -> int:
                         args.base_planner, args.arm_planner, args.arm_collision == "on", quiet=args.json,
                         gif=Path(args.gif) if args.gif else None)
     _print_metrics(result, args.json, f"{args.task}: {args.policy} subgoals")
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from relmogen.experiments.config import resolve_config
+    from relmogen.experiments.train import resume, train
+
+    if args.resume:
+        run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes)
+    else:
+        if not args.task or not args.algo:
+            raise ValueError("--task and --algo are required unless --resume is given")
+        config = resolve_config(args.task, args.algo, args.seed, args.preset, args.episodes or 1000, args.device,
+                                args.set, args.max_hours)
+        run_dir = train(config, Path(args.out), quiet=args.quiet)
+    print(run_dir)
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from relmogen.experiments.evaluate import evaluate_path
+
+    result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
+                           args.arm_collision == "on", args.scene, args.device, quiet=args.json)
+    _print_metrics(result, args.json, f"evaluation of {args.path}")
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from relmogen.experiments.report import write_report
+
+    result = write_report([Path(p) for p in args.runs], Path(args.out))
+    print(result.pop("markdown"))
+    print(json.dumps(result))
     return 0
 
 
@@ -108,6 +147,38 @@ def build_parser() -> argparse.ArgumentParser:
     oracle.add_argument("--gif", default=None, help="also record one episode to this GIF")
     oracle.add_argument("--json", action="store_true")
     oracle.set_defaults(func=cmd_oracle)
+
+    train = sub.add_parser("train", help="train a policy (SB3), with checkpoints and resume")
+    train.add_argument("--task")
+    train.add_argument("--algo", help="relmogen-r, sac or oac")
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--preset", default="cpu", help="a YAML preset in relmogen/configs/presets")
+    train.add_argument("--episodes", type=_positive_int, default=None, help="episode budget (default 1000)")
+    train.add_argument("--max-hours", type=float, default=None, help="stop after this much wall-clock time")
+    train.add_argument("--device", default="auto")
+    train.add_argument("--out", default="runs")
+    train.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                       help="override a preset value, e.g. --set algo.batch_size=32 --set env.n_envs=4")
+    train.add_argument("--resume", default=None, metavar="RUN_DIR")
+    train.add_argument("--quiet", action="store_true")
+    train.set_defaults(func=cmd_train)
+
+    evaluate = sub.add_parser("eval", help="evaluate a trained policy")
+    evaluate.add_argument("path", metavar="RUN_DIR_OR_CHECKPOINT")
+    evaluate.add_argument("--episodes", type=_positive_int, default=100)
+    evaluate.add_argument("--seed", type=int, default=100_000)
+    evaluate.add_argument("--base-planner", default=None)
+    evaluate.add_argument("--arm-planner", default=None)
+    evaluate.add_argument("--arm-collision", choices=["on", "off"], default="on")
+    evaluate.add_argument("--scene", default=None, help="A or B (or a full scene name)")
+    evaluate.add_argument("--device", default="auto")
+    evaluate.add_argument("--json", action="store_true")
+    evaluate.set_defaults(func=cmd_eval)
+
+    report = sub.add_parser("report", help="table (mean/std/max over seeds) and curves of runs")
+    report.add_argument("runs", nargs="+", metavar="RUN_DIR")
+    report.add_argument("--out", required=True)
+    report.set_defaults(func=cmd_report)
 
     bench = sub.add_parser("bench", help="speed benchmarks")
     bench.add_argument("what", choices=["env", "planner"])

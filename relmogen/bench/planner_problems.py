@@ -10,6 +10,9 @@ environment's motion generator, goal in the robot frame):
 * ``rotation``  same xy, different yaw.
 
 Half of the base problems come from the office (``office_A``), half from the house (``house_A``).
+The robot faces within 90 deg of the goal (the LiDAR sees 220 deg; behind the robot the map is
+UNKNOWN), and candidates whose goal footprint is not free on the scan's map are redrawn: every
+problem is one a policy could pick from the map, though a path need not exist.
 
 Arm problems (goal configuration = one seeded, collision-free IK solution, start = tucked):
 
@@ -32,7 +35,7 @@ import numpy as np
 import pybullet as p
 
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.motion_generation.base_planner import wrap_angle
+from relmogen.motion_generation.base_planner import FootprintChecker, wrap_angle
 from relmogen.scenes.geometry import Doorway
 from relmogen.simulation.occupancy import LocalMap
 
@@ -96,31 +99,43 @@ def place_robot(env: RelmogenEnv, xy, yaw: float) -> None:
     env.robot.reset((float(xy[0]), float(xy[1]), float(yaw)), head_tilt=env.task.head_tilt_angle())
 
 
-def base_problem(env: RelmogenEnv, category: str, start_xy, start_yaw: float, goal_xy, goal_yaw: float,
-                 seed: int) -> BaseProblem:
-    """Place the robot, scan, and express the world goal in the robot frame."""
+Candidate = tuple[np.ndarray, float, np.ndarray, float]  # start xy, start yaw, goal xy, goal yaw
+
+
+def heading(a, b) -> float:
+    return math.atan2(b[1] - a[1], b[0] - a[0])
+
+
+def observed_problem(env: RelmogenEnv, category: str, candidate: Candidate, seed: int) -> BaseProblem | None:
+    """Place the robot, scan, and express the goal in the robot frame; None when the goal's
+    footprint is not free on the scan's local map (unseen or occupied: no planner could)."""
+    start_xy, start_yaw, goal_xy, goal_yaw = candidate
     place_robot(env, start_xy, start_yaw)
     local_map = env.control.mg.local_map()
     goal_xy_robot = local_map.world_to_robot(np.asarray(goal_xy, dtype=np.float64))
     goal = np.array([*goal_xy_robot, wrap_angle(goal_yaw - start_yaw)], dtype=np.float64)
+    if FootprintChecker(local_map, robot_radius(env)).footprint_hits_obstacle(goal):
+        return None
     return BaseProblem(category, env.scene.name, local_map, goal, seed)
 
 
 # ----------------------------------------------------------------------------- base problems
 
 
-def open_problem(env: RelmogenEnv, rng: np.random.Generator, seed: int) -> BaseProblem:
+def furnished_rooms(env: RelmogenEnv) -> list[str]:
+    return [name for name in env.scene.regions if name != "corridor"]
+
+
+def open_candidate(env: RelmogenEnv, rng: np.random.Generator) -> Candidate | None:
+    """Room centre, goal 1-2 m away along a line with room to spare on the floor plan."""
+    rooms = furnished_rooms(env)
+    start = np.asarray(env.scene.regions[rooms[rng.integers(len(rooms))]].center) + rng.uniform(-0.3, 0.3, 2)
+    angle, distance = rng.uniform(-np.pi, np.pi), rng.uniform(1.0, 2.0)
+    goal = start + distance * np.array([np.cos(angle), np.sin(angle)])
     radius = robot_radius(env)
-    rooms = [name for name in env.scene.regions if name != "corridor"]
-    for _ in range(MAX_TRIES):
-        centre = np.asarray(env.scene.regions[rooms[rng.integers(len(rooms))]].center)
-        start = centre + rng.uniform(-0.3, 0.3, 2)
-        angle, distance = rng.uniform(-np.pi, np.pi), rng.uniform(1.0, 2.0)
-        goal = start + distance * np.array([np.cos(angle), np.sin(angle)])
-        if clearance_at(env, start) > radius + 0.2 and segment_clearance(env, start, goal) > radius + 0.1:
-            return base_problem(env, "open", start, rng.uniform(-np.pi, np.pi), goal,
-                                rng.uniform(-np.pi, np.pi), seed)
-    raise RuntimeError(f"no open-space problem in {env.scene.name}")
+    if clearance_at(env, start) < radius + 0.2 or segment_clearance(env, start, goal) < radius + 0.1:
+        return None
+    return start, angle + rng.uniform(-0.5, 0.5) * np.pi, goal, rng.uniform(-np.pi, np.pi)
 
 
 def _doorway_sides(doorway: Doorway, rng: np.random.Generator) -> tuple[str, str]:
@@ -128,64 +143,57 @@ def _doorway_sides(doorway: Doorway, rng: np.random.Generator) -> tuple[str, str
     return (a, b) if rng.random() < 0.5 else (b, a)
 
 
-def doorway_problem(env: RelmogenEnv, rng: np.random.Generator, seed: int) -> BaseProblem:
-    radius, doorways = robot_radius(env), env.scene.doorways
-    for _ in range(MAX_TRIES):
-        doorway = doorways[rng.integers(len(doorways))]
-        before, beyond = _doorway_sides(doorway, rng)
-        start = doorway.point_in_front(before, rng.uniform(0.9, 1.1)) + doorway.along * rng.uniform(-0.15, 0.15)
-        goal = doorway.point_in_front(beyond, rng.uniform(0.9, 1.1)) + doorway.along * rng.uniform(-0.15, 0.15)
-        heading = math.atan2(*(goal - start)[::-1])
-        if min(clearance_at(env, start), clearance_at(env, goal)) > radius + 0.05:
-            return base_problem(env, "doorway", start, heading + rng.uniform(-0.3, 0.3), goal,
-                                heading + rng.uniform(-0.5, 0.5), seed)
-    raise RuntimeError(f"no doorway problem in {env.scene.name}")
+def doorway_candidate(env: RelmogenEnv, rng: np.random.Generator) -> Candidate | None:
+    """~1 m before a doorway, facing it; goal ~1 m beyond it."""
+    doorway = env.scene.doorways[rng.integers(len(env.scene.doorways))]
+    before, beyond = _doorway_sides(doorway, rng)
+    start = doorway.point_in_front(before, rng.uniform(0.9, 1.1)) + doorway.along * rng.uniform(-0.3, 0.3)
+    goal = doorway.point_in_front(beyond, rng.uniform(0.9, 1.1)) + doorway.along * rng.uniform(-0.3, 0.3)
+    if min(clearance_at(env, start), clearance_at(env, goal)) < robot_radius(env) + 0.05:
+        return None
+    direction = heading(start, goal)
+    return start, direction + rng.uniform(-0.3, 0.3), goal, direction + rng.uniform(-0.5, 0.5)
 
 
-def _blocked_goal(env: RelmogenEnv, rng: np.random.Generator, room: str, start: np.ndarray) -> np.ndarray | None:
-    """A free goal 1-2.2 m from ``start`` whose straight line from it is blocked on the floor plan."""
-    radius = robot_radius(env)
-    for _ in range(30):
-        goal = env.scene.sample_free_point(rng, room, clearance=radius + 0.1)
-        if 1.0 <= math.dist(start, goal) <= 2.2 and segment_clearance(env, start, goal) < radius:
-            return goal
-    return None
+def cluttered_candidate(env: RelmogenEnv, rng: np.random.Generator) -> Candidate | None:
+    """Start and goal 1-2.2 m apart in one furnished room, the straight line between them
+    blocked on the floor plan (behind furniture, between desks)."""
+    rooms, radius = furnished_rooms(env), robot_radius(env)
+    room = rooms[rng.integers(len(rooms))]
+    start = env.scene.sample_free_point(rng, room, clearance=radius + 0.1)
+    goal = env.scene.sample_free_point(rng, room, clearance=radius + 0.1)
+    if not 1.0 <= math.dist(start, goal) <= 2.2 or segment_clearance(env, start, goal) >= radius:
+        return None
+    return start, heading(start, goal) + rng.uniform(-0.5, 0.5) * np.pi, goal, rng.uniform(-np.pi, np.pi)
 
 
-def cluttered_problem(env: RelmogenEnv, rng: np.random.Generator, seed: int) -> BaseProblem:
-    rooms = [name for name in env.scene.regions if name != "corridor"]
-    for _ in range(MAX_TRIES):
-        room = rooms[rng.integers(len(rooms))]
-        start = env.scene.sample_free_point(rng, room, clearance=robot_radius(env) + 0.1)
-        goal = _blocked_goal(env, rng, room, start)
-        if goal is not None:
-            return base_problem(env, "cluttered", start, rng.uniform(-np.pi, np.pi), goal,
-                                rng.uniform(-np.pi, np.pi), seed)
-    raise RuntimeError(f"no cluttered problem in {env.scene.name}")
-
-
-def rotation_problem(env: RelmogenEnv, rng: np.random.Generator, seed: int) -> BaseProblem:
+def rotation_candidate(env: RelmogenEnv, rng: np.random.Generator) -> Candidate | None:
+    """Same xy, a turn of 0.5 to pi rad either way."""
     start = env.scene.sample_free_point(rng, clearance=robot_radius(env) + 0.1)
     yaw = rng.uniform(-np.pi, np.pi)
-    turn = rng.choice([-1.0, 1.0]) * rng.uniform(0.5, np.pi)
-    return base_problem(env, "rotation", start, yaw, start, yaw + turn, seed)
+    return start, yaw, start, yaw + rng.choice([-1.0, 1.0]) * rng.uniform(0.5, np.pi)
 
 
-BASE_MAKERS: dict[str, Callable[[RelmogenEnv, np.random.Generator, int], BaseProblem]] = {
-    "open": open_problem, "doorway": doorway_problem, "cluttered": cluttered_problem,
-    "rotation": rotation_problem,
+CANDIDATES: dict[str, Callable[[RelmogenEnv, np.random.Generator], Candidate | None]] = {
+    "open": open_candidate, "doorway": doorway_candidate, "cluttered": cluttered_candidate,
+    "rotation": rotation_candidate,
 }
+
+
+def base_problem(env: RelmogenEnv, category: str, seed: int) -> BaseProblem:
+    rng = np.random.default_rng(seed)
+    for _ in range(MAX_TRIES * 10):
+        candidate = CANDIDATES[category](env, rng)
+        problem = candidate and observed_problem(env, category, candidate, seed)
+        if problem is not None:
+            return problem
+    raise RuntimeError(f"no {category} problem in {env.scene.name} (seed {seed})")
 
 
 def base_problems(envs: dict[str, RelmogenEnv], per_category: int, seed: int) -> list[BaseProblem]:
     """``per_category`` problems of each base category, alternating office and house."""
-    problems = []
-    for c, category in enumerate(BASE_CATEGORIES):
-        for i in range(per_category):
-            problem_seed = seed * 10_000 + c * 1_000 + i
-            env = envs["office" if i % 2 == 0 else "house"]
-            problems.append(BASE_MAKERS[category](env, np.random.default_rng(problem_seed), problem_seed))
-    return problems
+    return [base_problem(envs["office" if i % 2 == 0 else "house"], category, seed * 10_000 + c * 1_000 + i)
+            for c, category in enumerate(BASE_CATEGORIES) for i in range(per_category)]
 
 
 # ----------------------------------------------------------------------------- arm problems

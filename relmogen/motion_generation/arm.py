@@ -88,7 +88,7 @@ class ArmCollisionChecker:
         candidates = self._self_pair_candidates(shaped, anchors)
         self.ignored_pairs = self._pairs_touching_at_default_pose(candidates)
         self.self_pairs = [pair for pair in candidates if pair not in self.ignored_pairs]
-        self._aabb_links = sorted({link for pair in self.self_pairs for link in pair} | set(self.moving_links))
+        self._aabb_links = sorted({link for pair in self.self_pairs for link in pair})
         self._aabb_slot = {link: i for i, link in enumerate(self._aabb_links)}
         self._pair_slots = np.array([(self._aabb_slot[a], self._aabb_slot[b]) for a, b in self.self_pairs],
                                     dtype=np.int64).reshape(-1, 2)
@@ -143,18 +143,6 @@ class ArmCollisionChecker:
     def within_limits(self, q: Config) -> bool:
         return bool(np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9))
 
-    def link_hits_world(self, link: int, aabb_min, aabb_max) -> bool:
-        body, client = self.robot.robot_id, self.client
-        threshold = self._world_thresholds[link]
-        for other, other_link in p.getOverlappingObjects(aabb_min, aabb_max, physicsClientId=client) or ():
-            if other == body:
-                continue
-            points = p.getClosestPoints(body, other, 0.0, linkIndexA=link, linkIndexB=other_link,
-                                        physicsClientId=client)
-            if any(point[8] < threshold for point in points):
-                return True
-        return False
-
     def _self_pairs_with_overlapping_boxes(self, boxes: np.ndarray) -> list[tuple[int, int]]:
         """Narrow-phase candidates: pairs whose axis-aligned bounding boxes overlap."""
         a, b = boxes[self._pair_slots[:, 0]], boxes[self._pair_slots[:, 1]]
@@ -162,11 +150,22 @@ class ArmCollisionChecker:
         return [self.self_pairs[i] for i in np.flatnonzero(overlap)]
 
     def current_pose_in_collision(self) -> bool:
+        return self._hits_world() or self._hits_itself()
+
+    def _hits_world(self) -> bool:
+        """One broad+narrow phase over the whole world, then the arm's contacts."""
+        body, client = self.robot.robot_id, self.client
+        p.performCollisionDetection(physicsClientId=client)
+        for contact in p.getContactPoints(bodyA=body, physicsClientId=client):
+            threshold = self._world_thresholds.get(contact[3])
+            if threshold is not None and contact[2] != body and contact[8] < threshold:
+                return True
+        return False
+
+    def _hits_itself(self) -> bool:
         body, client = self.robot.robot_id, self.client
         boxes = np.array([p.getAABB(body, link, physicsClientId=client) for link in self._aabb_links])
-        if any(self._links_touch(a, b) for a, b in self._self_pairs_with_overlapping_boxes(boxes)):
-            return True
-        return any(self.link_hits_world(link, *boxes[self._aabb_slot[link]]) for link in self.moving_links)
+        return any(self._links_touch(a, b) for a, b in self._self_pairs_with_overlapping_boxes(boxes))
 
     def __call__(self, q: Config) -> bool:
         """Sets the planning joints (the caller restores them) and checks; True = collision."""

@@ -145,8 +145,11 @@ class Robot:
 
     def set_joint_positions(self, indices: Sequence[int], values: Sequence[float]) -> None:
         """Kinematic reset of joint positions (velocities zeroed; motor targets unchanged)."""
-        for j, q in zip(indices, values):
-            p.resetJointState(self.robot_id, int(j), float(q), 0.0, physicsClientId=self.client)
+        indices = [int(j) for j in indices]
+        # One multi-DoF call is 3-4x faster than a resetJointState per joint (planners call this
+        # for every collision check).
+        p.resetJointStatesMultiDof(self.robot_id, indices, targetValues=[[float(q)] for q in values],
+                                   targetVelocities=[[0.0]] * len(indices), physicsClientId=self.client)
 
     def command_joint_positions(self, indices: Sequence[int], values: Sequence[float],
                                 max_force: float | Sequence[float] | None = None,

@@ -133,14 +133,23 @@ def build_shell(rooms: dict[str, tuple[float, float, float, float]], doors: list
     return boxes, regions, doorways, bounds
 
 
-def floor_boxes(bounds: Rect, regions: dict[str, Rect], tile_colours: dict[str, RGBA]):
-    """A collision floor slab under the building plus thin visual-only tiles per region."""
+def floor_boxes(bounds: Rect, regions: dict[str, Rect], doorways: list[Doorway],
+                tile_colours: dict[str, RGBA]):
+    """An invisible collision floor slab plus thin visual-only tiles per region and doorway.
+
+    The slab is invisible because TinyRenderer rasterises one huge floor slowly (~3 ms
+    per 128x128 image); the room-sized tiles are cheaper and give each room its colour.
+    """
     cx, cy = bounds.center
     sx, sy = bounds.size
-    slab = Box((cx, cy, -0.05), (0.5 * sx + 1.0, 0.5 * sy + 1.0, 0.05), COLOURS["floor"], "floor")
-    tiles = [Box((*r.center, 0.001), (0.5 * r.size[0], 0.5 * r.size[1], 0.001), tile_colours[name],
-                 "floor_tile", collides=False)
-             for name, r in regions.items() if name in tile_colours]
+    slab = Box((cx, cy, -0.05), (0.5 * sx + 1.0, 0.5 * sy + 1.0, 0.05), COLOURS["floor"], "floor",
+               visible=False)
+    rects = [(r, tile_colours[name]) for name, r in regions.items()]
+    for d in doorways:
+        size = np.abs(d.normal) * d.wall_thickness + np.abs(d.along) * d.width
+        rects.append((Rect.around(d.center, size), tile_colours[d.regions[0]]))
+    tiles = [Box((*r.center, 0.001), (0.5 * r.size[0], 0.5 * r.size[1], 0.001), colour, "floor_tile",
+                 collides=False) for r, colour in rects]
     return [slab], tiles
 
 

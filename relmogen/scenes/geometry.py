@@ -65,6 +65,7 @@ class Box:
     rgba: RGBA
     kind: str  # e.g. "wall", "desk", "table"; boxes of one kind share PyBullet bodies
     collides: bool = True
+    visible: bool = True
 
     @property
     def footprint(self) -> Rect:

@@ -58,7 +58,7 @@ def _house_layout(name, rooms, doors, dining_yaw, kitchen_sides, reach_center, r
     for room, items in furniture.items():
         boxes += place_against_walls(rng, regions[room], items, keepouts)
     tiles = {"kitchen": COLOURS["floor_tiles"], "dining": COLOURS["floor_wood"], "living": COLOURS["floor_wood"]}
-    slab, tile_boxes = floor_boxes(bounds, regions, tiles)
+    slab, tile_boxes = floor_boxes(bounds, regions, doorways, tiles)
     return Layout(name, "house", bounds, slab + boxes, regions, doorways, tile_boxes,
                   kitchen_walls=[wall_face(regions["kitchen"], "kitchen", s) for s in kitchen_sides],
                   tables={"dining_table": dining, "reach_table": reach},

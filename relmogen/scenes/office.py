@@ -83,7 +83,7 @@ def _office_layout(name, rooms, doors, furniture, goal_region, seed) -> Layout:
     for room, items in furniture.items():
         boxes += place_against_walls(rng, regions[room], items, keepouts)
     tiles = {r: COLOURS["floor_corridor" if r == "corridor" else "floor_office"] for r in regions}
-    slab, tile_boxes = floor_boxes(bounds, regions, tiles)
+    slab, tile_boxes = floor_boxes(bounds, regions, doorways, tiles)
     return Layout(name, "office", bounds, slab + boxes, regions, doorways, tile_boxes,
                   start_region="corridor", goal_region=goal_region)
 

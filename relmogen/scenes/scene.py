@@ -44,25 +44,28 @@ def _spawn_compound(boxes: list[Box], client: int) -> int:
     n = len(boxes)
     half = [list(b.half_extents) for b in boxes]
     pos = [list(b.center) for b in boxes]
-    visual = p.createVisualShapeArray([p.GEOM_BOX] * n, halfExtents=half, visualFramePositions=pos,
-                                      physicsClientId=client)
+    visual = -1
+    if boxes[0].visible:
+        visual = p.createVisualShapeArray([p.GEOM_BOX] * n, halfExtents=half, visualFramePositions=pos,
+                                          physicsClientId=client)
     collision = -1
     if boxes[0].collides:
         collision = p.createCollisionShapeArray([p.GEOM_BOX] * n, halfExtents=half,
                                                 collisionFramePositions=pos, physicsClientId=client)
     body = p.createMultiBody(0.0, collision, visual, [0, 0, 0], useMaximalCoordinates=True,
                              physicsClientId=client)
-    p.changeVisualShape(body, -1, rgbaColor=list(boxes[0].rgba), physicsClientId=client)
+    if visual >= 0:
+        p.changeVisualShape(body, -1, rgbaColor=list(boxes[0].rgba), physicsClientId=client)
     return body
 
 
 def spawn_boxes(boxes: list[Box], client: int) -> dict[str, list[int]]:
-    """Spawn boxes grouped by (kind, colour, collides); returns body ids per kind."""
+    """Spawn boxes grouped by (kind, colour, collides, visible); returns body ids per kind."""
     groups: dict[tuple, list[Box]] = defaultdict(list)
     for b in boxes:
-        groups[(b.kind, b.rgba, b.collides)].append(b)
+        groups[(b.kind, b.rgba, b.collides, b.visible)].append(b)
     bodies: dict[str, list[int]] = defaultdict(list)
-    for (kind, _, _), members in groups.items():
+    for (kind, *_), members in groups.items():
         for i in range(0, len(members), MAX_SHAPES_PER_COMPOUND):
             bodies[kind].append(_spawn_compound(members[i:i + MAX_SHAPES_PER_COMPOUND], client))
     return dict(bodies)

@@ -114,8 +114,9 @@ def test_start_touching_an_obstacle_can_leave_it(nav):
     assert info["plan_found"], info["reason"]
 
 
-def test_goal_outside_the_window_or_in_a_wall_fails_at_once_with_a_reason():
+def test_goal_outside_the_window_or_in_a_wall_fails_at_once_with_a_reason(monkeypatch):
     env = RelmogenEnv(task="PointNav", control="subgoal-d", image_size=64)
+    monkeypatch.setattr(env.control.mg._base_planner, "plan", lambda *a, **k: pytest.fail("planner called"))
     _, info = env.reset(seed=0)
     control = env.control
     blocked = np.argwhere(~info["base_mask"])
@@ -123,7 +124,6 @@ def test_goal_outside_the_window_or_in_a_wall_fails_at_once_with_a_reason():
     i, j = blocked[0]
     _, reward, _, _, info = env.step(control.encode("base", 0, int(i), int(j)))
     assert not info["plan_found"] and info["reason"] in ("goal in collision", "goal outside local map")
-    assert info["planning_time_s"] < 0.05
     env.close()
 
 

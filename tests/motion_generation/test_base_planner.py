@@ -13,6 +13,7 @@ from relmogen.motion_generation.base_planner import (
     FootprintChecker,
     base_distance_fn,
     base_extend_fn,
+    make_base_planner,
     plan_base,
     wrap_angle,
 )
@@ -56,7 +57,9 @@ def test_empty_room_plans_straight(backend):
 @pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_doorway(backend):
     local_map, goal = doorway_map(), np.array([2.0, -1.0, 0.0])
-    result = plan_base(local_map, goal, backend, rng=1)
+    # OMPL stops on wall-clock time: give it room on a loaded CI machine.
+    planner = make_base_planner(backend, time_limit_s=5.0) if backend.startswith("ompl") else backend
+    result = plan_base(local_map, goal, planner, rng=1)
     assert_valid_path(local_map, result, goal)
     assert result.path_length_m > np.hypot(2.0, -1.0)  # had to detour through the gap
 
@@ -111,11 +114,12 @@ def test_unknown_counts_as_obstacle_except_under_robot():
     ("goal", "reason"),
     [((3.0, 0.0, 0.0), "goal outside local map"), ((1.0, -1.0, 0.0), "goal in collision")],
 )
-def test_bad_goal_fails_at_once(backend, goal, reason):
-    result = plan_base(doorway_map(), np.array(goal), backend, rng=0)
+def test_bad_goal_fails_at_once(backend, goal, reason, monkeypatch):
+    planner = make_base_planner(backend)
+    monkeypatch.setattr(planner, "plan", lambda *a, **k: pytest.fail("the planner must not be called"))
+    result = plan_base(doorway_map(), np.array(goal), planner, rng=0)
     assert not result.success and result.path_world is None
     assert result.reason == reason
-    assert result.planning_time_s < 0.05
 
 
 @pytest.mark.parametrize("backend", ["rrt_connect", "lazy_prm", "ompl_rrtconnect"])

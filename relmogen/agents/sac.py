@@ -1,0 +1,154 @@
+"""SAC with one shared image encoder (SGP-R and the joint-velocity baseline) and OAC.
+
+SB3's SAC gives the actor, the critic and the target critic their own features extractor
+and runs the image encoder five times per gradient step (actor on s and s', target critic
+on s', critic on s twice). ``SharedEncoderSAC`` keeps one encoder, trained by the critic
+loss, that the actor reads with gradients stopped (as in SAC-AE and DrQ), plus its Polyak
+target: three encoder forward passes and one backward pass per step. ``relmogen bench
+train`` measures the difference.
+
+OAC (Ciosek et al. 2019, "Better Exploration with Optimistic Actor-Critic"): exploration
+actions come from a Gaussian whose mean is shifted, by at most ``sqrt(2 * delta)`` in the
+policy covariance's norm, along the gradient of the critics' upper bound
+``Q_UB = mean(Q1, Q2) + beta_ub * |Q1 - Q2| / 2`` taken at the policy mean (pre-tanh).
+Training is plain SAC.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3 import SAC
+from stable_baselines3.common.utils import polyak_update
+from stable_baselines3.sac.policies import MultiInputPolicy
+from torch.nn import functional as F
+
+
+class SharedEncoderSACPolicy(MultiInputPolicy):
+    """One features extractor for actor and critic; the critic's optimizer trains it."""
+
+    def __init__(self, *args: Any, **kwargs: Any):
+        kwargs["share_features_extractor"] = True
+        super().__init__(*args, **kwargs)
+
+    def _build(self, lr_schedule) -> None:
+        super()._build(lr_schedule)
+        encoder = list(self.actor.features_extractor.parameters())
+        encoder_ids = {id(p) for p in encoder}
+        actor_params = [p for p in self.actor.parameters() if id(p) not in encoder_ids]
+        critic_params = [p for name, p in self.critic.named_parameters() if "features_extractor" not in name]
+        self.actor.optimizer = self.optimizer_class(actor_params, lr=lr_schedule(1), **self.optimizer_kwargs)
+        self.critic.optimizer = self.optimizer_class(critic_params + encoder, lr=lr_schedule(1),
+                                                     **self.optimizer_kwargs)
+
+
+def _actor_from_features(actor, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+    latent = actor.latent_pi(features)
+    mean, log_std = actor.mu(latent), th.clamp(actor.log_std(latent), -20, 2)
+    return actor.action_dist.log_prob_from_params(mean, log_std)
+
+
+def _q_from_features(critic, features: th.Tensor, actions: th.Tensor) -> list[th.Tensor]:
+    inputs = th.cat([features, actions], dim=1)
+    return [q_net(inputs) for q_net in critic.q_networks]
+
+
+class SharedEncoderSAC(SAC):
+    """SB3 SAC whose gradient step encodes each observation batch once (see module doc)."""
+
+    def __init__(self, policy=SharedEncoderSACPolicy, *args: Any, **kwargs: Any):
+        super().__init__(policy, *args, **kwargs)
+
+    def train(self, gradient_steps: int, batch_size: int = 64) -> None:
+        self.policy.set_training_mode(True)
+        optimizers = [self.actor.optimizer, self.critic.optimizer]
+        if self.ent_coef_optimizer is not None:
+            optimizers.append(self.ent_coef_optimizer)
+        self._update_learning_rate(optimizers)
+        logs: dict[str, list[float]] = {"ent_coef": [], "actor_loss": [], "critic_loss": [], "ent_coef_loss": []}
+        for _ in range(gradient_steps):
+            self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env), logs)
+        self._n_updates += gradient_steps
+        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
+        for key, values in logs.items():
+            if values:
+                self.logger.record(f"train/{key}", float(np.mean(values)))
+
+    def _gradient_step(self, data, logs: dict[str, list[float]]) -> None:
+        critic, target = self.critic, self.critic_target
+        features = critic.extract_features(data.observations, critic.features_extractor)
+        with th.no_grad():
+            next_features = critic.extract_features(data.next_observations, critic.features_extractor)
+            next_target_features = target.extract_features(data.next_observations, target.features_extractor)
+        actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
+        log_prob = log_prob.reshape(-1, 1)
+        ent_coef = self._entropy_step(log_prob, logs)
+        with th.no_grad():
+            next_actions, next_log_prob = _actor_from_features(self.actor, next_features)
+            next_q = th.cat(_q_from_features(self.critic_target, next_target_features, next_actions), dim=1)
+            next_q = th.min(next_q, dim=1, keepdim=True)[0] - ent_coef * next_log_prob.reshape(-1, 1)
+            discounts = data.discounts if data.discounts is not None else self.gamma
+            target_q = data.rewards + (1 - data.dones) * discounts * next_q
+        current_q = _q_from_features(self.critic, features, data.actions)
+        critic_loss = 0.5 * sum(F.mse_loss(q, target_q) for q in current_q)
+        self.critic.optimizer.zero_grad()
+        critic_loss.backward()
+        self.critic.optimizer.step()
+        q_pi = th.cat(_q_from_features(self.critic, features.detach(), actions_pi), dim=1)
+        actor_loss = (ent_coef * log_prob - th.min(q_pi, dim=1, keepdim=True)[0]).mean()
+        self.actor.optimizer.zero_grad()
+        actor_loss.backward()
+        self.actor.optimizer.step()
+        polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
+        logs["critic_loss"].append(critic_loss.item())
+        logs["actor_loss"].append(actor_loss.item())
+
+    def _entropy_step(self, log_prob: th.Tensor, logs: dict[str, list[float]]) -> th.Tensor:
+        if self.ent_coef_optimizer is None:
+            logs["ent_coef"].append(self.ent_coef_tensor.item())
+            return self.ent_coef_tensor
+        ent_coef = th.exp(self.log_ent_coef.detach())
+        loss = -(self.log_ent_coef * (log_prob + self.target_entropy).detach()).mean()
+        self.ent_coef_optimizer.zero_grad()
+        loss.backward()
+        self.ent_coef_optimizer.step()
+        logs["ent_coef"].append(ent_coef.item())
+        logs["ent_coef_loss"].append(loss.item())
+        return ent_coef
+
+
+def optimistic_action(policy, observation: dict[str, np.ndarray], beta_ub: float, delta: float,
+                      rng: np.random.Generator) -> np.ndarray:
+    """OAC exploration actions in [-1, 1] for a batch of observations."""
+    obs, _ = policy.obs_to_tensor(observation)
+    with th.no_grad():
+        features = policy.actor.extract_features(obs, policy.actor.features_extractor)
+        latent = policy.actor.latent_pi(features)
+        mean, log_std = policy.actor.mu(latent), th.clamp(policy.actor.log_std(latent), -20, 2)
+        critic_features = policy.critic.extract_features(obs, policy.critic.features_extractor)
+    pre_tanh = mean.detach().clone().requires_grad_(True)
+    q1, q2 = _q_from_features(policy.critic, critic_features, th.tanh(pre_tanh))[:2]
+    q_upper = (q1 + q2) / 2.0 + beta_ub * th.abs(q1 - q2) / 2.0
+    (grad,) = th.autograd.grad(q_upper.sum(), pre_tanh)
+    variance = th.exp(2.0 * log_std)
+    norm = th.sqrt(th.sum(grad * grad * variance, dim=1, keepdim=True)).clamp_min(1e-8)
+    shifted_mean = mean + np.sqrt(2.0 * delta) * variance * grad / norm
+    noise = th.as_tensor(rng.standard_normal(mean.shape), dtype=mean.dtype, device=mean.device)
+    return th.tanh(shifted_mean + th.exp(log_std) * noise).detach().cpu().numpy()
+
+
+class OAC(SharedEncoderSAC):
+    """SAC trained as usual, exploring with the optimistic shift of Ciosek et al. (2019)."""
+
+    def __init__(self, *args: Any, beta_ub: float = 4.66, delta: float = 23.53, **kwargs: Any):
+        self.beta_ub, self.delta = float(beta_ub), float(delta)
+        super().__init__(*args, **kwargs)
+        self._oac_rng = np.random.default_rng(self.seed)
+
+    def _sample_action(self, learning_starts: int, action_noise=None, n_envs: int = 1):
+        if self.num_timesteps < learning_starts:
+            return super()._sample_action(learning_starts, action_noise, n_envs)
+        scaled = optimistic_action(self.policy, self._last_obs, self.beta_ub, self.delta, self._oac_rng)
+        return self.policy.unscale_action(scaled), scaled

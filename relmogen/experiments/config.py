@@ -1,0 +1,118 @@
+"""Typed training configuration: YAML presets validated by pydantic, overridable per key.
+
+A preset (``relmogen/configs/presets/<name>.yaml``) has three sections: ``env``, ``algos``
+(one block per algorithm) and ``run``. ``resolve_config`` picks the block of the chosen
+algorithm, applies ``--set section.key=value`` overrides and returns a ``TrainConfig`` that is
+saved next to the run (``config.yaml``) so a run can always be resumed or reproduced.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+PRESET_DIR = Path(__file__).resolve().parent.parent / "configs" / "presets"
+ALGOS = ("relmogen-r", "sac", "oac")
+CONTROL_OF_ALGO = {"relmogen-r": "subgoal-r", "sac": "joint", "oac": "joint"}
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class EnvConfig(_Strict):
+    image_size: int = Field(128, ge=16)
+    n_envs: int = Field(1, ge=1)
+    scene: str | None = None
+    base_planner: str = "rrt_connect"
+    arm_planner: str = "rrt_connect"
+    arm_collision_train: bool = False
+
+
+class AlgoConfig(_Strict):
+    learning_rate: float = Field(3e-4, gt=0)
+    buffer_size: int = Field(10_000, ge=1)
+    batch_size: int = Field(256, ge=1)
+    tau: float = Field(0.005, gt=0, le=1)
+    gamma: float = Field(0.99, gt=0, le=1)
+    learning_starts: int = Field(200, ge=0)
+    train_freq: int = Field(1, ge=1)
+    gradient_steps: int = Field(1, ge=1)
+    net_arch: list[int] = Field(default_factory=lambda: [256, 256])
+    beta_ub: float | None = None  # OAC only
+    delta: float | None = None  # OAC only
+
+
+class RunSettings(_Strict):
+    eval_every_episodes: int = Field(100, ge=1)
+    eval_episodes: int = Field(10, ge=1)
+    checkpoint_every_episodes: int = Field(20, ge=1)
+
+
+class TrainConfig(_Strict):
+    task: str
+    algo: Literal["relmogen-r", "sac", "oac"]
+    seed: int = 0
+    preset: str = "cpu"
+    episodes: int = Field(1000, ge=1)
+    max_hours: float | None = Field(None, gt=0)  # stop on wall-clock instead (equal-time comparisons)
+    device: str = "auto"
+    env: EnvConfig = Field(default_factory=EnvConfig)
+    algo_params: AlgoConfig = Field(default_factory=AlgoConfig)
+    run: RunSettings = Field(default_factory=RunSettings)
+
+    @property
+    def control(self) -> str:
+        return CONTROL_OF_ALGO[self.algo]
+
+
+def available_presets() -> list[str]:
+    return sorted(path.stem for path in PRESET_DIR.glob("*.yaml"))
+
+
+def load_preset(name: str) -> dict:
+    path = PRESET_DIR / f"{name}.yaml"
+    if not path.is_file():
+        raise ValueError(f"unknown preset {name!r}; valid presets: {', '.join(available_presets())}")
+    return yaml.safe_load(path.read_text())
+
+
+def _apply_override(tree: dict, assignment: str) -> None:
+    """``section.key=value`` with a YAML-parsed value (``env.n_envs=4``, ``algo.net_arch=[64,64]``)."""
+    if "=" not in assignment:
+        raise ValueError(f"override {assignment!r} must look like section.key=value")
+    dotted, raw = assignment.split("=", 1)
+    *parents, key = dotted.strip().split(".")
+    node = tree
+    for part in parents:
+        node = node.setdefault("algo_params" if part == "algo" else part, {})
+    node[key] = yaml.safe_load(raw)
+
+
+def resolve_config(task: str, algo: str, seed: int = 0, preset: str = "cpu", episodes: int = 1000,
+                   device: str = "auto", overrides: list[str] = (), max_hours: float | None = None) -> TrainConfig:
+    if algo not in ALGOS:
+        raise ValueError(f"unknown algorithm {algo!r}; valid algorithms: {', '.join(ALGOS)}")
+    data = load_preset(preset)
+    tree = {
+        "task": task, "algo": algo, "seed": seed, "preset": preset, "episodes": episodes, "device": device,
+        "max_hours": max_hours, "env": data.get("env", {}), "algo_params": data.get("algos", {}).get(algo, {}),
+        "run": data.get("run", {}),
+    }
+    for assignment in overrides:
+        _apply_override(tree, assignment)
+    try:
+        return TrainConfig.model_validate(tree)
+    except ValidationError as error:
+        raise ValueError(f"invalid configuration:\n{error}") from error
+
+
+def save_config(config: TrainConfig, path: Path) -> None:
+    path.write_text(yaml.safe_dump(config.model_dump(), sort_keys=False))
+
+
+def read_config(path: Path) -> TrainConfig:
+    return TrainConfig.model_validate(yaml.safe_load(Path(path).read_text()))

@@ -1,0 +1,61 @@
+"""``relmogen eval``: a trained policy, deterministic, with the task metrics and MG statistics.
+
+The planners, arm collision checking and scene can differ from training: that is how the
+paper's planner-swap (Table II) and scene-transfer results are measured.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.experiments.config import TrainConfig, read_config
+from relmogen.experiments.rollout import aggregate, run_episodes
+from relmogen.tasks import task_class
+from relmogen.experiments.train import env_kwargs, latest_checkpoint, model_class, resolve_device
+
+
+def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
+                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
+                   quiet: bool = False) -> dict:
+    if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
+        scene = f"{task_class(config.task).scene_kind}_{scene}"
+    env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
+    try:
+        records = run_episodes(env, lambda obs: model.predict(obs, deterministic=True)[0], episodes, seed, quiet,
+                               description=f"eval {config.task}")
+    finally:
+        env.close()
+    settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name}
+    if config.control != "joint":
+        settings.update(base_planner=base_planner or config.env.base_planner,
+                        arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)
+    return {**settings, **aggregate(records)}
+
+
+def load_policy(path: Path, device: str = "auto"):
+    """A run directory (its latest checkpoint) or a checkpoint folder -> (model, config)."""
+    path = Path(path)
+    if (path / "model.zip").is_file():
+        checkpoint, run_dir = path, path.parent.parent
+    else:
+        checkpoint, run_dir = latest_checkpoint(path), path
+        if checkpoint is None:
+            raise ValueError(f"{path} has no checkpoint (expected {path}/checkpoints/latest)")
+    config = read_config(run_dir / "config.yaml")
+    model = model_class(config).load(checkpoint / "model.zip", device=resolve_device(device))
+    return model, config, run_dir
+
+
+def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | None = None,
+                  arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
+                  device: str = "auto", quiet: bool = False, save: bool = True) -> dict:
+    model, config, run_dir = load_policy(path, device)
+    result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet)
+    if save:
+        name = f"eval_{result.get('scene')}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_" \
+               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep.json"
+        (run_dir / "eval").mkdir(exist_ok=True)
+        (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
+    return result

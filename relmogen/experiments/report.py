@@ -1,0 +1,132 @@
+"""``relmogen report``: the paper's table (mean / std / max over seeds) and training curves.
+
+Each run directory contributes its final evaluation (the newest ``eval/*.json`` with arm
+collision checking on, else the last periodic evaluation) and its ``episodes.csv`` curve.
+Curves are averaged over seeds on a common grid of environment episodes (the paper's x-axis).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections import defaultdict
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from relmogen.experiments.config import read_config  # noqa: E402
+
+TABLE_METRICS = ("success_rate", "spl", "closed_5", "closed_10")
+CURVE_SMOOTHING = 20  # episodes in the moving average of each seed's curve
+
+
+def final_evaluation(run_dir: Path) -> dict | None:
+    evals = sorted((run_dir / "eval").glob("*collision-on*.json"), key=lambda p: p.stat().st_mtime)
+    if evals:
+        return json.loads(evals[-1].read_text())
+    periodic = run_dir / "eval_during_training.jsonl"
+    if periodic.is_file():
+        lines = periodic.read_text().strip().splitlines()
+        return json.loads(lines[-1]) if lines else None
+    return None
+
+
+def summarise(values: list[float]) -> dict[str, float]:
+    arr = np.asarray(values, dtype=float)
+    return {"mean": float(arr.mean()), "std": float(arr.std()), "max": float(arr.max()), "n": len(arr)}
+
+
+def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
+    groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
+    for run_dir in map(Path, run_dirs):
+        config = read_config(run_dir / "config.yaml")
+        groups[(config.task, config.algo)].append({
+            "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir),
+            "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
+        })
+    return groups
+
+
+def _state(run_dir: Path) -> dict:
+    done = run_dir / "done.json"
+    return json.loads(done.read_text()) if done.is_file() else {}
+
+
+def read_curve(path: Path) -> dict[str, np.ndarray]:
+    if not path.is_file():
+        return {"episode": np.zeros(0), "success": np.zeros(0), "return": np.zeros(0)}
+    with open(path, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    return {key: np.array([float(r[key]) for r in rows]) for key in ("episode", "success", "return", "wall_time_s")}
+
+
+def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
+    lines = ["| task | algorithm | seeds | " + " | ".join(TABLE_METRICS) + " | episodes | wall-clock h |",
+             "|---|---|---|" + "---|" * len(TABLE_METRICS) + "---|---|"]
+    for (task, algo), runs in sorted(groups.items()):
+        evaluated = [r for r in runs if r["eval"] is not None]
+        cells = []
+        for metric in TABLE_METRICS:
+            if not evaluated:
+                cells.append("-")
+                continue
+            s = summarise([r["eval"][metric] for r in evaluated])
+            cells.append(f"{s['mean']:.2f} / {s['std']:.2f} / {s['max']:.2f}")
+        episodes = [r["state"].get("episodes", len(r["curve"]["episode"])) for r in runs]
+        hours = [r["state"].get("wall_time_s", 0.0) / 3600 for r in runs]
+        lines.append(f"| {task} | {algo} | {len(runs)} | " + " | ".join(cells)
+                     + f" | {int(np.mean(episodes))} | {np.mean(hours):.2f} |")
+    lines.append("")
+    lines.append("Cells are mean / std / max over seeds of the final evaluation (deterministic policy).")
+    return "\n".join(lines)
+
+
+def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray) -> np.ndarray:
+    episodes, values = curve["episode"], curve[key]
+    if len(values) == 0:
+        return np.full(len(grid), np.nan)
+    kernel = min(CURVE_SMOOTHING, len(values))
+    smooth = np.convolve(values, np.ones(kernel) / kernel, mode="valid")
+    return np.interp(grid, episodes[kernel - 1:], smooth, left=np.nan, right=np.nan)
+
+
+def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
+    tasks = sorted({task for task, _ in groups})
+    fig, axes = plt.subplots(2, len(tasks), figsize=(5.5 * len(tasks), 7), squeeze=False)
+    for column, task in enumerate(tasks):
+        for (group_task, algo), runs in sorted(groups.items()):
+            if group_task != task:
+                continue
+            last = max(r["curve"]["episode"].max(initial=0) for r in runs)
+            grid = np.linspace(1, max(last, 1), 200)
+            for row, key in enumerate(("success", "return")):
+                curves = np.array([_smoothed_on_grid(r["curve"], key, grid) for r in runs])
+                mean, std = np.nanmean(curves, axis=0), np.nanstd(curves, axis=0)
+                ax = axes[row, column]
+                ax.plot(grid, mean, label=f"{algo} ({len(runs)} seeds)")
+                ax.fill_between(grid, mean - std, mean + std, alpha=0.25)
+                ax.set_xlabel("environment episodes")
+                ax.set_ylabel("success rate" if key == "success" else "episode return")
+        axes[0, column].set_title(task)
+        axes[0, column].legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_report(run_dirs: list[Path], out: Path) -> dict[str, str]:
+    groups = collect(run_dirs)
+    if not groups:
+        raise ValueError("no run directories given")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    table = markdown_table(groups)
+    (out / "table.md").write_text(table + "\n")
+    curves = plot_curves(groups, out / "curves.png")
+    return {"table": str(out / "table.md"), "curves": str(curves), "markdown": table}

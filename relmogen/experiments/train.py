@@ -1,0 +1,262 @@
+"""``relmogen train``: SB3 training with progress, TensorBoard, checkpoints and resume.
+
+A run directory ``{task}__{algo}__{seed}__{time}`` holds ``config.yaml`` (the resolved
+configuration), ``episodes.csv`` (one row per finished training episode), TensorBoard events
+(x-axis: environment episodes, as the paper plots), and ``checkpoints/`` with the model AND
+its replay buffer. Checkpoints are written to a fresh folder and published by atomically
+replacing ``checkpoints/latest``, so ``kill -9`` at any moment leaves the previous one
+intact; ``--resume RUN_DIR`` continues from it (at most one checkpoint interval is lost).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import torch as th
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+from torch.utils.tensorboard import SummaryWriter
+
+from relmogen.agents.networks import SGPREncoder
+from relmogen.agents.sac import OAC, SharedEncoderSAC
+from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.experiments.config import TrainConfig, read_config, save_config
+
+CHECKPOINTS = "checkpoints"
+LATEST = "latest"  # a file naming the newest complete checkpoint folder
+EPISODE_FIELDS = ["episode", "timesteps", "wall_time_s", "return", "length", "success"]
+SUCCESS_WINDOW = 20
+
+
+def resolve_device(device: str) -> str:
+    if device == "auto":
+        return "cuda" if th.cuda.is_available() else "cpu"
+    return device
+
+
+def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | None = None,
+               arm_planner: str | None = None, scene: str | None = None) -> dict:
+    kwargs = {"task": config.task, "control": config.control, "image_size": config.env.image_size,
+              "scene": scene or config.env.scene}
+    if config.control != "joint":
+        kwargs.update(base_planner=base_planner or config.env.base_planner,
+                      arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)
+    return kwargs
+
+
+def make_training_env(config: TrainConfig):
+    vec_cls = SubprocVecEnv if config.env.n_envs > 1 else DummyVecEnv
+    kwargs = env_kwargs(config, arm_collision=config.env.arm_collision_train)
+    return make_vec_env(RelmogenEnv, n_envs=config.env.n_envs, seed=config.seed, env_kwargs=kwargs,
+                        vec_env_cls=vec_cls)
+
+
+def build_model(config: TrainConfig, env):
+    params = config.algo_params
+    policy_kwargs = dict(features_extractor_class=SGPREncoder, normalize_images=False, net_arch=params.net_arch)
+    common = dict(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
+                  batch_size=params.batch_size, tau=params.tau, gamma=params.gamma,
+                  learning_starts=params.learning_starts, train_freq=params.train_freq,
+                  gradient_steps=params.gradient_steps, policy_kwargs=policy_kwargs, seed=config.seed,
+                  device=resolve_device(config.device), verbose=0)
+    if config.algo == "oac":
+        return OAC(beta_ub=params.beta_ub or 4.66, delta=params.delta or 23.53, **common)
+    return SharedEncoderSAC(**common)
+
+
+def model_class(config: TrainConfig):
+    return OAC if config.algo == "oac" else SharedEncoderSAC
+
+
+# ------------------------------------------------------------------------ checkpoints
+def latest_checkpoint(run_dir: Path) -> Path | None:
+    pointer = Path(run_dir) / CHECKPOINTS / LATEST
+    if not pointer.is_file():
+        return None
+    folder = pointer.parent / pointer.read_text().strip()
+    return folder if (folder / "model.zip").is_file() else None
+
+
+def write_checkpoint(run_dir: Path, model, state: dict) -> Path:
+    root = Path(run_dir) / CHECKPOINTS
+    folder = root / f"episode_{state['episodes']:07d}"
+    staging = root / f".staging_{os.getpid()}"
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(parents=True)
+    model.save(staging / "model.zip")
+    model.save_replay_buffer(staging / "replay_buffer.pkl")
+    (staging / "state.json").write_text(json.dumps(state))
+    shutil.rmtree(folder, ignore_errors=True)
+    os.replace(staging, folder)
+    _publish(root, folder.name)
+    for old in root.glob("episode_*"):
+        if old.name != folder.name:
+            shutil.rmtree(old, ignore_errors=True)
+    return folder
+
+
+def _publish(root: Path, name: str) -> None:
+    tmp = root / f".{LATEST}.tmp"
+    tmp.write_text(name)
+    os.replace(tmp, root / LATEST)
+
+
+# --------------------------------------------------------------------------- callback
+class TrainingMonitor(BaseCallback):
+    """Counts episodes; logs, checkpoints, evaluates and stops on the episode/time budget."""
+
+    def __init__(self, run_dir: Path, config: TrainConfig, state: dict, quiet: bool = False):
+        super().__init__()
+        self.run_dir, self.config, self.state, self.quiet = Path(run_dir), config, state, quiet
+        self.writer = SummaryWriter(str(self.run_dir / "tb"))
+        self.successes: list[float] = []
+        self.session_start = time.time()
+        self.wall_before_session = state["wall_time_s"]
+        self.steps_at_start = state["timesteps"]
+        self.csv_file = open(self.run_dir / "episodes.csv", "a", newline="")
+        self.csv = csv.DictWriter(self.csv_file, fieldnames=EPISODE_FIELDS, extrasaction="ignore")
+        if self.csv_file.tell() == 0:
+            self.csv.writeheader()
+        self.progress = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[stats]}"),
+                                 TimeElapsedColumn(), disable=quiet)
+        self.bar = None
+
+    @property
+    def wall_time(self) -> float:
+        return self.wall_before_session + (time.time() - self.session_start)
+
+    def _on_training_start(self) -> None:
+        self.progress.start()
+        self.bar = self.progress.add_task(f"{self.config.task} {self.config.algo}", total=self.config.episodes,
+                                          completed=self.state["episodes"], stats="")
+
+    def _on_training_end(self) -> None:
+        self.progress.stop()
+
+    def _on_step(self) -> bool:
+        for info, done in zip(self.locals["infos"], self.locals["dones"]):
+            if done and "episode" in info:
+                self._record_episode(info)
+        return not self._budget_spent()
+
+    def _budget_spent(self) -> bool:
+        hours = self.config.max_hours
+        return self.state["episodes"] >= self.config.episodes or (hours is not None and self.wall_time >= hours * 3600)
+
+    def _record_episode(self, info: dict) -> None:
+        self.state["episodes"] += 1
+        self.state["timesteps"] = self.model.num_timesteps
+        episode, success = self.state["episodes"], float(info.get("is_success", False))
+        self.successes = (self.successes + [success])[-SUCCESS_WINDOW:]
+        sps = (self.model.num_timesteps - self.steps_at_start) / max(time.time() - self.session_start, 1e-9)
+        row = {"episode": episode, "timesteps": self.model.num_timesteps, "wall_time_s": round(self.wall_time, 2),
+               "return": info["episode"]["r"], "length": info["episode"]["l"], "success": success}
+        self.csv.writerow(row)
+        self.csv_file.flush()
+        self._log_scalars(episode, row, sps)
+        self.progress.update(self.bar, completed=episode,
+                             stats=f"SR {np.mean(self.successes):.2f}  {sps:.1f} steps/s  {self.model.num_timesteps} steps")
+        if episode % self.config.run.checkpoint_every_episodes == 0:
+            self.checkpoint()
+        if episode % self.config.run.eval_every_episodes == 0:
+            self.evaluate(episode)
+
+    def evaluate(self, episode: int) -> None:
+        """Deterministic policy on a separate environment (arm collision checking on)."""
+        from relmogen.experiments.evaluate import evaluate_model
+
+        result = evaluate_model(self.model, self.config, self.config.run.eval_episodes,
+                                seed=10_000 + episode, quiet=True)
+        for key in ("success_rate", "spl", "closed_10", "mean_return"):
+            self.writer.add_scalar(f"eval/{key}", result[key], episode)
+        with open(self.run_dir / "eval_during_training.jsonl", "a") as handle:
+            handle.write(json.dumps({"episode": episode, "wall_time_s": round(self.wall_time, 2), **result}) + "\n")
+
+    def _log_scalars(self, episode: int, row: dict, sps: float) -> None:
+        self.writer.add_scalar("charts/episodic_return", row["return"], episode)
+        self.writer.add_scalar("charts/episodic_length", row["length"], episode)
+        self.writer.add_scalar("charts/success_rate", float(np.mean(self.successes)), episode)
+        self.writer.add_scalar("charts/SPS", sps, episode)
+        self.writer.add_scalar("charts/timesteps", self.model.num_timesteps, episode)
+        for key, value in self.model.logger.name_to_value.items():
+            if key.startswith("train/"):
+                self.writer.add_scalar(f"losses/{key.split('/', 1)[1]}", value, episode)
+
+    def checkpoint(self) -> None:
+        self.state["wall_time_s"] = self.wall_time
+        self.state["timesteps"] = self.model.num_timesteps
+        write_checkpoint(self.run_dir, self.model, dict(self.state))
+
+    def close(self) -> None:
+        self.writer.close()
+        self.csv_file.close()
+
+
+# ------------------------------------------------------------------------------ train
+def new_run_dir(out: Path, config: TrainConfig) -> Path:
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    run_dir = Path(out) / f"{config.task}__{config.algo}__{config.seed}__{stamp}"
+    run_dir.mkdir(parents=True, exist_ok=False)
+    save_config(config, run_dir / "config.yaml")
+    return run_dir
+
+
+def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False) -> Path:
+    run_dir = new_run_dir(out, config)
+    state = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}
+    env = make_training_env(config)
+    model = build_model(config, env)
+    return _learn(run_dir, config, model, state, quiet)
+
+
+def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None) -> Path:
+    """Continue a run from its latest checkpoint (optionally with a new episode budget)."""
+    run_dir = Path(run_dir)
+    config = read_config(run_dir / "config.yaml")
+    if episodes is not None:
+        config = config.model_copy(update={"episodes": episodes})
+        save_config(config, run_dir / "config.yaml")
+    checkpoint = latest_checkpoint(run_dir)
+    env = make_training_env(config)
+    if checkpoint is None:  # killed before the first checkpoint: start over in place
+        state, model = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, build_model(config, env)
+    else:
+        state = json.loads((checkpoint / "state.json").read_text())
+        model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device))
+        model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
+    _truncate_episode_log(run_dir / "episodes.csv", state["episodes"])
+    return _learn(run_dir, config, model, state, quiet)
+
+
+def _truncate_episode_log(path: Path, episodes: int) -> None:
+    """Drop rows written after the checkpoint we resume from (they will be replayed)."""
+    if not path.is_file():
+        return
+    with open(path, newline="") as handle:
+        rows = [row for row in csv.DictReader(handle) if int(row["episode"]) <= episodes]
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=EPISODE_FIELDS)
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) -> Path:
+    monitor = TrainingMonitor(run_dir, config, state, quiet)
+    try:
+        if not monitor._budget_spent():
+            model.learn(total_timesteps=10**12, callback=monitor, reset_num_timesteps=state["timesteps"] == 0,
+                        progress_bar=False)
+        monitor.checkpoint()
+    finally:
+        monitor.close()
+        model.get_env().close()
+    (run_dir / "done.json").write_text(json.dumps(state))
+    return run_dir
