@@ -45,6 +45,7 @@ class RelmogenEnv(gym.Env):
         image_size: int = 128,
         render_mode: str | None = None,
         scene_seed: int = 0,
+        episode_steps: int | None = None,
         **control_options: Any,
     ):
         task_cls = task_class(task)
@@ -68,6 +69,10 @@ class RelmogenEnv(gym.Env):
         self.control_steps_per_action = int(round(CONTROL_DT / self.world.time_step))
         self._collision_args = self._collision_filter()
         self.control = make_control(control, self, **control_options)
+        if episode_steps is not None:  # shorter episodes for smoke tests; the paper's lengths by default
+            if int(episode_steps) < 1:
+                raise ValueError(f"episode_steps must be positive, got {episode_steps}")
+            self.control.episode_steps = int(episode_steps)
         self.action_space = self.control.action_space
         self.observation_space = self._observation_space(image_size)
         self.elapsed_steps = 0
@@ -144,6 +149,9 @@ class RelmogenEnv(gym.Env):
             "task_obs": self.task.task_obs(),
         }
         obs.update(self.control.extra_observation())
+        if not (np.isfinite(obs["task_obs"]).all() and np.isfinite(obs["scan"]).all()):
+            raise RuntimeError(f"non-finite observation in {self.task.name}: task_obs={obs['task_obs']}, "
+                               f"robot pose={self.robot.base_pose()}; the physics state is broken")
         return obs
 
     def scan(self) -> np.ndarray:

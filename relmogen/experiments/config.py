@@ -30,6 +30,7 @@ class EnvConfig(_Strict):
     base_planner: str = "rrt_connect"
     arm_planner: str = "rrt_connect"
     arm_collision_train: bool = False
+    episode_steps: int | None = Field(None, ge=1)  # None: the paper's (25 subgoals / 750 joint steps)
 
 
 class AlgoConfig(_Strict):

@@ -46,6 +46,8 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
                arm_planner: str | None = None, scene: str | None = None) -> dict:
     kwargs = {"task": config.task, "control": config.control, "image_size": config.env.image_size,
               "scene": scene or config.env.scene}
+    if config.env.episode_steps is not None:
+        kwargs["episode_steps"] = config.env.episode_steps
     if config.control != "joint":
         kwargs.update(base_planner=base_planner or config.env.base_planner,
                       arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)

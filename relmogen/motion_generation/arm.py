@@ -293,3 +293,8 @@ class ArmMotion:
                                              cfg.push_ik_iterations)
             robot.set_joint_positions(robot.arm_joint_indices, path[-1])
         self._move_kinematically(self.default_config)
+        # A push can force the fingers past their limits; a bent finger would make the tucked
+        # arm touch the torso and every later arm plan fail.
+        open_fingers = robot.spec.gripper_open
+        robot.set_joint_positions(robot.gripper_joint_indices, open_fingers)
+        robot.command_joint_positions(robot.gripper_joint_indices, open_fingers)

@@ -23,6 +23,7 @@ import pybullet as p
 INVALID_DEPTH = 0.0
 _NEAR_PLANE = 0.05
 _FAR_PLANE = 10.0
+_RENDER_ATTEMPTS = 3
 
 
 @dataclass(frozen=True)
@@ -92,16 +93,26 @@ class Camera:
         )
 
     def capture(self, position: np.ndarray, rotation: np.ndarray) -> CameraFrame:
-        forward, up = rotation[:, 0], rotation[:, 2]
-        view = p.computeViewMatrix(position, position + forward, up)
+        position = np.asarray(position, dtype=np.float64)
+        for attempt in range(_RENDER_ATTEMPTS):
+            # TinyRenderer returns an all-NaN z-buffer (and a black image) for rare exact
+            # poses; a 1 mm shift of the eye along its up axis renders normally.
+            eye = position + attempt * 1e-3 * rotation[:, 2]
+            rgba, zbuffer = self._render(eye, rotation)
+            if not np.isnan(zbuffer).any():
+                depth = self._linearise(zbuffer)
+                return CameraFrame(rgba[..., :3], depth, position, np.asarray(rotation))
+        raise RuntimeError(f"the renderer returned NaN depth at camera position {position}")
+
+    def _render(self, eye: np.ndarray, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        view = p.computeViewMatrix(eye, eye + rotation[:, 0], rotation[:, 2])
         _, _, rgba, zbuffer, _ = p.getCameraImage(
             self.intrinsics.width, self.intrinsics.height, view, self._projection,
             renderer=p.ER_TINY_RENDERER, flags=p.ER_NO_SEGMENTATION_MASK,
             physicsClientId=self.client,
         )
         rgba = np.asarray(rgba, dtype=np.uint8).reshape(self.intrinsics.height, self.intrinsics.width, 4)
-        depth = self._linearise(np.asarray(zbuffer, dtype=np.float32))
-        return CameraFrame(rgba[..., :3], depth, np.asarray(position), np.asarray(rotation))
+        return rgba, np.asarray(zbuffer, dtype=np.float32)
 
     def _linearise(self, zbuffer: np.ndarray) -> np.ndarray:
         depth = _FAR_PLANE * _NEAR_PLANE / (_FAR_PLANE - (_FAR_PLANE - _NEAR_PLANE) * zbuffer)

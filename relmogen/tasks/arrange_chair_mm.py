@@ -3,8 +3,8 @@
 Task Description:
     Chairs stand pulled out from the dining table of a house scene, one at each chosen gap
     between the table legs on the long sides. The robot must push every chair under the
-    table: the seat (0.45 m wide) passes between legs 0.6 m apart and under the 0.71 m
-    underside, the backrest stops at the table edge. Nothing about the chairs or the table
+    table: the seat (0.40 m wide) passes between legs 0.595 m apart and under the 0.71 m
+    underside, the backrest stops at the table edge (tucked = backrest 2 cm from it). Nothing about the chairs or the table
     is in the observation: the policy must find them in the images.
 
 Randomizations:

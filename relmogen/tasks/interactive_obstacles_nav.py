@@ -51,7 +51,7 @@ from relmogen.scenes.navigation import StartGoal
 from relmogen.scenes.objects.obstacles import HEAVY_OBSTACLE, LIGHT_OBSTACLE, BoxObstacle, footprint_mask
 from relmogen.tasks.base import register_task
 from relmogen.tasks.navigation import NavigationTask
-from relmogen.tasks.terms import EventReward, PotentialReward
+from relmogen.tasks.terms import PotentialReward
 
 PUSH_LENGTH = 0.25
 CLEARING_PUSHES = 2  # a valid layout opens after at most this many forward pushes of the red box

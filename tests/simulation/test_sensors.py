@@ -77,3 +77,20 @@ def test_lidar_measures_distance_to_walls(world):
     assert sideways == pytest.approx(25.0)  # nothing to the left
     rotated = lidar.scan(np.array([0.0, 0.0, 0.3]), np.pi)  # facing away
     assert rotated[np.argmin(np.abs(lidar.angles))] == pytest.approx(25.0)
+
+
+def test_a_pose_where_the_renderer_returns_nan_is_rendered_from_1_mm_away(world, monkeypatch):
+    add_box(world.client, [2.0, 0.0, 1.0], [0.5, 3.0, 3.0])
+    camera = Camera(world.client)
+    real_render = camera._render
+    calls = []
+
+    def first_call_fails(eye, rotation):
+        calls.append(eye)
+        rgba, z = real_render(eye, rotation)
+        return (rgba * 0, z * np.nan) if len(calls) == 1 else (rgba, z)
+
+    monkeypatch.setattr(camera, "_render", first_call_fails)
+    frame = camera.capture(np.array([0.0, 0.0, 1.0]), np.eye(3))
+    assert len(calls) == 2 and np.linalg.norm(calls[1] - calls[0]) == pytest.approx(1e-3)
+    assert np.isfinite(frame.depth).all() and frame.depth[32, 32] == pytest.approx(1.5, abs=0.02)

@@ -81,7 +81,7 @@ def test_boxes_differ_only_in_colour_and_mass(joint_env):
     task, client = joint_env.task, joint_env.world.client
     red_shape = p.getCollisionShapeData(task.red.body_id, -1, physicsClientId=client)[0]
     green_shape = p.getCollisionShapeData(task.green.body_id, -1, physicsClientId=client)[0]
-    assert red_shape[3] == pytest.approx(green_shape[3]) == pytest.approx((0.7, 0.7, 1.2))
+    assert np.allclose(red_shape[3], green_shape[3]) and np.allclose(red_shape[3], (0.7, 0.7, 1.2))
     assert p.getDynamicsInfo(task.red.body_id, -1, physicsClientId=client)[0] == LIGHT_OBSTACLE.mass == 1.0
     assert p.getDynamicsInfo(task.green.body_id, -1, physicsClientId=client)[0] == HEAVY_OBSTACLE.mass == 1e4
     red_rgb, green_rgb = np.array(LIGHT_OBSTACLE.rgba[:3]), np.array(HEAVY_OBSTACLE.rgba[:3])
@@ -111,22 +111,25 @@ def box_hit(task, xy, radius) -> bool:
 
 
 def test_arm_push_slides_the_red_box_but_not_the_green_one(subgoal_env):
+    """Each box alone in the open corridor, pushed square on its face by the motion generator."""
     env = subgoal_env
     task, mg = env.task, env.control.mg
     env.reset(seed=3)
+    corridor = env.scene.regions[env.scene.start_region]
+    centre = np.array(corridor.center)
     moved = {}
-    for box in (task.red, task.green):
-        task.red.set_pose(task.red_start, task.door.yaw)
-        task.green.set_pose(task.green_start, task.door.yaw)
-        for attempt in range(12):
-            face, push_dir = stand_at_push_pose(env, box)
-            start = box.position()
-            result = mg.reach_and_push(np.array([*face, 0.65]), np.array([*push_dir * PUSH_LENGTH, 0.0]),
-                                       np.random.default_rng(attempt), lambda dt: None)
+    for box, other in ((task.red, task.green), (task.green, task.red)):
+        other.set_pose(centre + (4.0, 0.0), 0.0)
+        for attempt in range(15):
+            box.set_pose(centre, 0.0)
+            env.robot.reset((centre[0] - 0.35 - 0.85, centre[1], 0.0), head_tilt=task.head_tilt_angle())
+            face = np.array([centre[0] - 0.35, centre[1], (0.65, 0.6, 0.75)[attempt % 3]])
+            result = mg.reach_and_push(face, np.array([PUSH_LENGTH, 0.0, 0.0]), np.random.default_rng(attempt),
+                                       lambda dt: None)
             if result.success:
                 break
         assert result.success, result.reason
-        moved[box.spec.name] = float(np.linalg.norm(box.position()[:2] - start[:2]))
+        moved[box.spec.name] = float(np.linalg.norm(box.position()[:2] - centre))
         assert abs(box.position()[2] - 0.6) < 0.01, "the box must slide, not tip or jump"
     assert 0.15 <= moved["red"] <= 0.35
     assert moved["green"] < 0.005

@@ -2,10 +2,12 @@
 
 Privileged information: the chair poses and their tucked poses. Per chair (nearest first):
 drive to a stance on the chair's gap line, ``STANDOFF`` behind the backrest and facing the
-table; then push the middle of the backrest along the gap normal by the remaining distance
-(at most 0.25 m), aiming slightly to the side when the chair is off the gap line. Repeat
-until the chair is within ``DONE`` of tucked; a chair that does not move for several tries
-is skipped.
+table (round the table through detour corners when it is in the way); then push the
+backrest along the gap normal by the remaining distance (at most 0.25 m). The contact point
+is shifted off the backrest's middle to steer: the chair slides along its own heading, so
+the oracle turns it toward a heading that also removes its sideways offset. Repeat until the
+chair is within ``DONE`` of tucked; a chair without progress for ``MAX_TRIES`` subgoals is
+skipped.
 """
 
 from __future__ import annotations
@@ -16,10 +18,10 @@ from relmogen.agents.oracles.base import Oracle, arm_action, base_action, regist
 from relmogen.scenes.geometry import Table
 
 STANDOFF = 0.8  # robot centre to the backrest's rear face, metres
-PUSH_HEIGHT = 0.7  # on the backrest, metres above the floor
+PUSH_HEIGHT = 0.72  # on the backrest, metres above the floor
 STANCE_TOLERANCE = (0.08, 0.12)  # metres, rad: close enough to push from
 DONE = 0.05  # a chair this close to tucked is left alone (the tight tolerance)
-OVERSHOOT = 0.04  # push this much past tucked (the table edge stops the backrest)
+OVERSHOOT = 0.02  # push this much past tucked (the table edge stops the backrest)
 MAX_TRIES = 8  # subgoals spent on one chair without progress before skipping it
 STEER_GAIN = 0.35  # backrest contact offset (m) per rad of heading error (~0.15 rad per push at 5 cm)
 MAX_STEER = 0.2  # rad: the largest heading asked for to cancel a sideways offset

@@ -2,11 +2,15 @@
 first the door, then the drawer of each.
 
 Privileged state: which items are open and the cabinets' poses. It acts through subgoal-r
-only. For each set the robot stands in front of the set, offset to the door's hinge side
-(where the door's outer face is in view at any opening up to 100 deg), facing the set.
-Door: a push from the outer face near mid-panel towards the closed door's plane; when that
-is out of one push's reach (wide openings) the push goes as far round as 0.25 m allows, and a
-second push finishes it. Drawer: a push on the front along the closing axis.
+only. For each set the robot stands at the task's standing spot in front of the set's hinge
+side (from where the door's outer face is in view at any opening), facing the set; from afar
+it first drives to an approach point clear of every set, because the spot is often in the
+LiDAR shadow of an open door and the base planner treats unseen space as occupied.
+Door: a push from the outer face 0.3 m from the hinge towards the door's face line at the
+angle one 0.25 m push can reach (1.5 deg short of closed when in reach: never press a front
+into its stop); wide-open doors take a second push. Drawer: a push on the front along the
+closing axis, ending 1 cm short of closed. An item is given up after 4 arm subgoals that did
+not close it noticeably (failed arm plans, slips).
 """
 
 from __future__ import annotations

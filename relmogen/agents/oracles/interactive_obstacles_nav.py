@@ -23,6 +23,8 @@ STAND_OFF = np.arange(0.45, 0.95, 0.05)  # base centre to the pushed face, metre
 PREFERRED_STAND_OFF = 0.85
 SIDE_OFFSETS = np.arange(-0.3, 0.31, 0.05)  # base centre across the face normal
 BASE_MARGIN = 0.07  # extra clearance of a push pose from walls and boxes
+ARM_TRIES_PER_POSE = 3  # failed subgoals before trying the next push pose
+POSE_CHOICES = 3
 POSE_TOLERANCE = (0.08, 0.12)  # m, rad: close enough to the push pose to push
 LOOKAHEADS = (10, 7, 4, 2)  # waypoints (0.2 m apart) to aim at; shorter after a failed plan
 ESCAPE_AFTER = 4  # failed subgoals in a row before driving somewhere clear at random
@@ -52,7 +54,9 @@ class InteractiveObstaclesNavOracle(Oracle):
     task_name = "InteractiveObstaclesNav"
 
     def reset(self) -> None:
-        self._attempt = 0
+        self._attempt = 0  # subgoals in a row that moved neither the robot nor the red box
+        self._arm_failures = 0  # arm subgoals since the red box last moved
+        self._pushed = False  # the previous action was an arm subgoal
         self._last_state = None
         self._field_key = None
         self._field: GeodesicField | None = None
@@ -61,14 +65,19 @@ class InteractiveObstaclesNavOracle(Oracle):
     def act(self, obs: dict) -> np.ndarray:
         self._count_failed_attempts()
         if self.way_is_open():
-            return self.drive_to(self.env.task.goal_xy)
-        return self.clear_red_box()
+            action = self.drive_to(self.env.task.goal_xy)
+        else:
+            action = self.clear_red_box()
+        self._pushed = bool(action[0] <= 0.0)
+        return action
 
     def _count_failed_attempts(self) -> None:
         task = self.env.task
-        state = np.concatenate([self.env.robot.base_pose(), task.red.position()[:2]])
-        stuck = self._last_state is not None and np.allclose(state, self._last_state, atol=2e-3)
+        state = np.concatenate([self.env.robot.base_pose()[:2], task.red.position()[:2]])
+        stuck = self._last_state is not None and np.allclose(state, self._last_state, atol=0.03)
         self._attempt = self._attempt + 1 if stuck else 0
+        red_moved = self._last_state is not None and np.linalg.norm(state[2:] - self._last_state[2:]) > 0.03
+        self._arm_failures = 0 if red_moved else self._arm_failures + int(self._pushed)
         self._last_state = state
 
     def way_is_open(self) -> bool:
@@ -80,7 +89,7 @@ class InteractiveObstaclesNavOracle(Oracle):
         task = self.env.task
         xy, yaw = task.red.pose2d()
         face, push_dir = box_face(xy, yaw, task.half, -task.door.normal)
-        stand = self.push_pose(face, push_dir)
+        stand = self.push_pose(face, push_dir, rank=(self._arm_failures // ARM_TRIES_PER_POSE) % POSE_CHOICES)
         if stand is None:
             return self.drive_to(task.door.point_in_front(task.door.regions[0], 0.6))
         stand_xy, stand_yaw = stand
@@ -88,15 +97,17 @@ class InteractiveObstaclesNavOracle(Oracle):
         far = np.hypot(*(stand_xy - (x, y))) > POSE_TOLERANCE[0] or abs(wrap(stand_yaw - heading)) > POSE_TOLERANCE[1]
         if far and (self._attempt < 2 or np.hypot(*(stand_xy - (x, y))) > 0.5):
             return self.drive_to(stand_xy, stand_yaw)
-        point = np.array([*face, PUSH_HEIGHTS[self._attempt % len(PUSH_HEIGHTS)]])
+        point = np.array([*face, PUSH_HEIGHTS[self._arm_failures % len(PUSH_HEIGHTS)]])
         action = arm_action(self.env, point, np.array([*push_dir * PUSH_LENGTH, 0.0]))
         if action is None:  # face out of view: turn toward it
             return base_action(self.env, (x, y), float(np.arctan2(face[1] - y, face[0] - x)))
         return action
 
-    def push_pose(self, face: np.ndarray, push_dir: np.ndarray) -> tuple[np.ndarray, float] | None:
-        """Base pose facing the face centre from behind it, clear of walls and both boxes,
-        nearest to the preferred stand-off; None if there is none."""
+    def push_pose(self, face: np.ndarray, push_dir: np.ndarray, rank: int = 0) -> tuple[np.ndarray, float] | None:
+        """Base pose facing the face from behind it, clear of walls and both boxes. Candidates
+        are ranked by closeness to the preferred stand-off and to the doorway's centre line
+        (the arm passes the doorway there); ``rank`` picks a later one, >= 0.15 m from the
+        better ones, to vary the arm's problem after failures. None if there is none."""
         task, robot = self.env.task, self.env.robot
         side = np.array([-push_dir[1], push_dir[0]])
         grid = np.array([[face - d * push_dir + s * side for s in SIDE_OFFSETS] for d in STAND_OFF])
@@ -104,11 +115,19 @@ class InteractiveObstaclesNavOracle(Oracle):
         ok = self._static_clearance(grid) >= clearance_needed
         for xy, yaw, half in task.obstacle_footprints():
             ok &= distance_to_box(grid, xy, yaw, half[0]) >= clearance_needed
-        if not ok.any():
+        off_centre = np.abs((grid - np.asarray(task.door.center)) @ task.door.along)
+        cost = np.abs(STAND_OFF - PREFERRED_STAND_OFF)[:, None] + off_centre
+        order = [k for k in np.argsort(np.where(ok, cost, np.inf), axis=None) if ok.flat[k]]
+        chosen: list[np.ndarray] = []
+        for k in order:
+            xy = grid.reshape(-1, 2)[k]
+            if all(np.linalg.norm(xy - c) >= 0.15 for c in chosen):
+                chosen.append(xy)
+            if len(chosen) > rank:
+                break
+        if not chosen:
             return None
-        cost = np.abs(STAND_OFF - PREFERRED_STAND_OFF)[:, None] + 0.5 * np.abs(SIDE_OFFSETS)[None, :]
-        i, j = np.unravel_index(np.argmin(np.where(ok, cost, np.inf)), ok.shape)
-        stand_xy = grid[i, j]
+        stand_xy = chosen[-1]
         return stand_xy, float(np.arctan2(face[1] - stand_xy[1], face[0] - stand_xy[0]))
 
     def _static_clearance(self, points: np.ndarray) -> np.ndarray:
@@ -147,7 +166,7 @@ class InteractiveObstaclesNavOracle(Oracle):
         task, robot = self.env.task, self.env.robot
         rng = np.random.default_rng(self._attempt)
         x, y, heading = robot.base_pose()
-        angles = heading + rng.uniform(-1.5, 1.5, 64)
+        angles = rng.uniform(-np.pi, np.pi, 64)
         radii = rng.uniform(0.3, 1.2, 64)
         points = np.stack([x + radii * np.cos(angles), y + radii * np.sin(angles)], axis=-1)
         clear = self._static_clearance(points)

@@ -3,8 +3,8 @@
 Privileged state: the door's hinge, angle and bar. Each stroke pushes the bar 0.45-0.55 m
 from the hinge along the chord of the arc it should sweep (about 30-40 deg per 0.25 m push),
 from a base pose in the corridor that puts the bar about 0.7 m ahead of the base centre.
-Once the door is past 80 deg the robot drives to a point 1 m inside the room, beside the
-door, then follows the shortest path to the goal. A subgoal that changes nothing (no plan,
+Once the door is past 80 deg the robot lines up 0.6 m before the doorway, drives to a point
+1 m inside the room beside the door, then follows the shortest path to the goal. A subgoal that changes nothing (no plan,
 blocked push) makes the next one vary the stroke or the base pose.
 """
 

@@ -1,15 +1,18 @@
 """A dining chair: one rigid body of boxes (seat, four legs, backrest) that the arm can push.
 
 Local frame: origin on the floor under the seat centre, +x is the way a sitter faces (the
-front), the backrest stands on the back edge of the seat (-x). The seat (0.45 m high, 0.42 m
-deep, 0.45 m wide) passes under a 0.71 m table underside and between table legs 0.6 m apart;
-the backrest (0.85 m high) does not, so it stops the chair at the table edge.
+front), the backrest stands on the back edge of the seat (-x). The seat (0.45 m high,
+0.40 x 0.40 m) passes under a 0.71 m table underside and between table legs 0.595 m apart
+(about 10 cm to spare on each side); the backrest (0.85 m high, 6 cm thick) does not, so it
+stops the chair at the table edge.
 
-Physics choices: 4 kg with the centre of mass low (0.25 m, as if the legs and seat frame
-were heavy) and legs at the seat corners. A horizontal push at height h slides the chair
-before tipping it when the foot friction mu satisfies mu * h < d (d = 0.19 m, the distance
-from the centre of mass to the front legs): with mu = 0.2 (0.4 here times the floor's 0.5,
-PyBullet multiplies the two) a push anywhere on the backrest (h <= 0.85 m) slides it.
+Physics choices: 6 kg with the centre of mass low (0.25 m) and the mass in the corner legs
+(a steel frame). A horizontal push at height h slides the chair before tipping it while the
+foot friction mu satisfies mu * h < d (d = 0.18 m, centre of mass to the front legs): with
+mu = 0.15 (0.3 here times the floor's default 0.5; PyBullet multiplies the two) a push
+anywhere on the backrest (h <= 0.85 m) slides it, and a 0.25 m push at the arm's 0.1 m/s
+moves it about 0.25-0.28 m. A slippery point contact drives the chair along its own heading
+and an off-centre contact turns it (about 0.15 rad per 0.25 m push at 5 cm off-centre).
 """
 
 from __future__ import annotations
@@ -25,8 +28,8 @@ CHAIR_RGBA: RGBA = (0.10, 0.55, 0.70, 1.0)  # teal blue: unlike the wooden table
 
 @dataclass(frozen=True)
 class ChairGeometry:
-    seat_depth: float = 0.42
-    seat_width: float = 0.45
+    seat_depth: float = 0.40
+    seat_width: float = 0.40
     seat_height: float = 0.45  # top of the seat
     seat_thickness: float = 0.04
     leg_size: float = 0.035

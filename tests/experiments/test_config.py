@@ -1,0 +1,39 @@
+import pytest
+
+from relmogen.experiments.config import available_presets, resolve_config
+
+
+def test_presets_exist_and_validate():
+    assert {"paper", "cpu", "tiny"} <= set(available_presets())
+    for preset in available_presets():
+        for algo in ("relmogen-r", "sac", "oac"):
+            resolve_config("PushDoorNav", algo, preset=preset)
+
+
+def test_paper_preset_has_the_paper_hyperparameters():
+    config = resolve_config("PushDoorNav", "relmogen-r", preset="paper")
+    assert config.env.n_envs == 16 and config.env.image_size == 128
+    params = config.algo_params
+    assert (params.batch_size, params.buffer_size, params.learning_starts) == (256, 10_000, 200)
+    assert (params.learning_rate, params.tau, params.gamma) == (3e-4, 0.005, 0.99)
+    assert config.control == "subgoal-r"
+
+
+def test_every_value_can_be_overridden():
+    config = resolve_config("PointNav", "sac", preset="cpu",
+                            overrides=["algo.batch_size=32", "env.n_envs=4", "algo.net_arch=[64, 64]", "run.eval_episodes=3"])
+    assert config.algo_params.batch_size == 32 and config.env.n_envs == 4
+    assert config.algo_params.net_arch == [64, 64] and config.run.eval_episodes == 3
+
+
+@pytest.mark.parametrize("kwargs,message", [
+    (dict(algo="ppo"), "valid algorithms"),
+    (dict(preset="huge"), "valid presets"),
+    (dict(overrides=["algo.batch_size=-1"]), "batch_size"),
+    (dict(overrides=["algo.not_a_key=1"]), "not_a_key"),
+    (dict(overrides=["nonsense"]), "section.key=value"),
+])
+def test_bad_configuration_is_refused_with_a_reason(kwargs, message):
+    args = dict(task="PointNav", algo="sac") | kwargs
+    with pytest.raises(ValueError, match=message):
+        resolve_config(**args)
