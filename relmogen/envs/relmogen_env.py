@@ -78,6 +78,7 @@ class RelmogenEnv(gym.Env):
         self.elapsed_steps = 0
         self.sim_time = 0.0
         self.last_frame = None
+        self.frame_hook = None  # called during subgoal execution (videos of the motion)
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(self, *, seed: int | None = None, options: dict | None = None):

@@ -32,7 +32,6 @@ from gymnasium import spaces
 from relmogen.envs.controls import StepOutcome, validate_action
 from relmogen.motion_generation.base_planner import FootprintChecker
 from relmogen.motion_generation.generator import MotionGenerator, MotionGeneratorConfig, SubgoalResult
-from relmogen.simulation.occupancy import build_local_map
 
 if TYPE_CHECKING:
     from relmogen.envs.relmogen_env import RelmogenEnv
@@ -55,6 +54,8 @@ class RewardAccumulator:
     def tick(self, dt: float) -> None:
         self.env.sim_time += dt
         self.env.task.after_control_step()
+        if self.env.frame_hook is not None:
+            self.env.frame_hook()
         self.pending += dt
         if self.pending >= 0.1 - 1e-9:
             self.flush()

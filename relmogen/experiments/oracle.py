@@ -24,6 +24,6 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
               "arm_planner": arm_planner, "arm_collision": arm_collision, **aggregate(records)}
     if gif is not None:
         record = run_episode(env, agent.act, seed, record_frames=True, on_reset=agent.reset)
-        result["gif"] = str(write_animation(record.frames, gif, fps=2))
+        result["gif"] = str(write_animation(record.frames, gif, fps=8))
     env.close()
     return result

@@ -28,12 +28,17 @@ class EpisodeRecord:
     frames: list[np.ndarray] = field(default_factory=list)
 
 
+FRAME_PERIOD_S = 0.4  # simulated seconds between video frames while a subgoal executes
+
+
 def run_episode(env: RelmogenEnv, act: Policy, seed: int, record_frames: bool = False,
                 on_reset: Callable[[], None] | None = None) -> EpisodeRecord:
     obs, _ = env.reset(seed=seed)
     if on_reset is not None:
         on_reset()
     frames = [env.third_person_image()] if record_frames else []
+    if record_frames:
+        env.frame_hook = _frame_recorder(env, frames)
     subgoals, done, info = [], False, {}
     while not done:
         obs, _, terminated, truncated, info = env.step(act(obs))
@@ -42,7 +47,19 @@ def run_episode(env: RelmogenEnv, act: Policy, seed: int, record_frames: bool = 
             subgoals.append({k: info[k] for k in ("subgoal_type", "plan_found", "reason", "planner")})
         if record_frames:
             frames.append(env.third_person_image())
+    env.frame_hook = None
     return EpisodeRecord(info["metrics"], env.episode_return, env.elapsed_steps, info["termination"], subgoals, frames)
+
+
+def _frame_recorder(env: RelmogenEnv, frames: list) -> Callable[[], None]:
+    last = {"time": env.sim_time}
+
+    def record() -> None:
+        if env.sim_time - last["time"] >= FRAME_PERIOD_S:
+            frames.append(env.third_person_image())
+            last["time"] = env.sim_time
+
+    return record
 
 
 def run_episodes(env: RelmogenEnv, act: Policy, episodes: int, seed: int = 0, quiet: bool = False,

@@ -27,11 +27,14 @@ def robot_collisions(
     floor_body: int | None,
 ) -> list[Collision]:
     """Contacts of the robot with anything else, except the gripper (``allowed_links``) and
-    the wheels/casters resting on the floor (``floor_contact_links`` against ``floor_body``)."""
+    the wheels/casters resting on the floor (``floor_contact_links`` against ``floor_body``).
+
+    Bullet also reports points closer than its contact threshold (2 cm) that do not touch;
+    only touching or penetrating points (distance <= 0) count."""
     result = []
     for contact in p.getContactPoints(bodyA=robot_id, physicsClientId=client):
-        other, robot_link, other_link = contact[2], contact[3], contact[4]
-        if other == robot_id or robot_link in allowed_links:
+        other, robot_link, other_link, distance = contact[2], contact[3], contact[4], contact[8]
+        if distance > 0.0 or other == robot_id or robot_link in allowed_links:
             continue
         if other == floor_body and robot_link in floor_contact_links:
             continue

@@ -151,13 +151,23 @@ class InteractiveObstaclesNav(NavigationTask):
         return layouts
 
     def layout_is_valid(self, barrier: Barrier) -> bool:
-        """Blocked with both boxes; open once the red box is pushed ``CLEARING_PUSHES`` times."""
+        """Both boxes on free floor; blocked with both; open once the red box is pushed
+        ``CLEARING_PUSHES`` times."""
         red, green = barrier.poses(self.door, self.half)
         radius = self.ctx.robot.spec.base_radius
+        if not (self.on_free_floor(red) and self.on_free_floor(green)):
+            return False
         if self.room_reachable([red, green], radius + BLOCKED_SLACK):
             return False
         pushed = red + CLEARING_PUSHES * PUSH_LENGTH * self.door.normal
         return self.room_reachable([pushed, green], radius + OPEN_SLACK)
+
+    def on_free_floor(self, xy: np.ndarray, margin: float = 0.03) -> bool:
+        """Whether a box at ``xy`` (door-aligned) clears walls and furniture by ``margin``."""
+        trav = self.ctx.scene.trav_map
+        offsets = np.arange(-self.half - margin, self.half + margin + 1e-9, 0.5 * trav.resolution)
+        points = np.stack(np.meshgrid(offsets, offsets), axis=-1).reshape(-1, 2) + np.asarray(xy)
+        return bool(np.all(trav.is_free(points)))
 
     def room_reachable(self, box_xys, radius: float) -> bool:
         """Whether a base of ``radius`` can drive from the corridor in front of the goal doorway

@@ -69,6 +69,7 @@ def test_reset_blocks_the_goal_room_with_a_red_and_a_green_box(scene):
             position, _ = box_state(box)
             assert np.allclose(position, [*start, 0.6], atol=1e-6)
             assert env.scene.region_of(position[:2]) == env.scene.goal_region
+            assert task.on_free_floor(start), "boxes must not overlap walls or furniture"
         radius = env.robot.spec.base_radius
         assert not task.room_reachable([task.red_start, task.green_start], radius - 0.03)
         pushed = task.red_start + 2 * PUSH_LENGTH * task.door.normal
