@@ -88,8 +88,22 @@ def bench_env(task: str = "PointNav", samples: int = 200, image_size: int = 128,
         "floor_ms": round(floor, 3),
         "ratio": round(joint / floor, 3),
         "reset_ms": round(float(np.median(resets)), 3),
+        "reset_ms_by_task": reset_medians(image_size, seed),
         **subgoals,
     }
+
+
+def reset_medians(image_size: int, seed: int, resets: int = 15) -> dict[str, float]:
+    """Median ``env.reset`` (re-randomise in place, first observation included) per task."""
+    from relmogen.tasks import TASKS
+
+    medians = {}
+    for name in sorted(TASKS):
+        env = RelmogenEnv(task=name, control="joint", image_size=image_size)
+        env.reset(seed=seed)  # the first reset may build caches
+        medians[name] = round(float(np.median([_timed(lambda: env.reset(seed=seed + i)) for i in range(resets)])), 3)
+        env.close()
+    return medians
 
 
 # ----------------------------------------------------------------------------- lifted steps

@@ -116,8 +116,12 @@ class RelmogenEnv(gym.Env):
     # ---------------------------------------------------------------- low-level pieces
     def simulate_control_step(self) -> tuple[float, dict[str, float], str | None]:
         """Advance 0.1 s with whatever motor commands are set; returns the task reward, its
-        terms, and a termination cause ('success' or 'collision') or None."""
-        self.world.step(self.control_steps_per_action)
+        terms, and a termination cause ('success' or 'collision') or None. Collisions are
+        checked after every physics step, so the episode ends at the first touch."""
+        for _ in range(self.control_steps_per_action):
+            self.world.step()
+            if self.collisions():
+                break
         self.sim_time += CONTROL_DT
         self.task.after_control_step()
         reward, terms = self.task.reward()

@@ -15,7 +15,8 @@ from relmogen.cli import main
 
 BACKEND_KEYS = {"attempts", "success_rate", "median_ms", "p95_ms", "mean_path_length", "success_by_category"}
 NULLABLE_BACKEND_KEYS = {"success_rate", "median_ms", "p95_ms", "mean_path_length"}
-ENV_KEYS = {"task", "image_size", "samples", "joint_step_ms", "floor_ms", "ratio", "reset_ms", "subgoal_samples",
+ENV_KEYS = {"task", "image_size", "samples", "joint_step_ms", "floor_ms", "ratio", "reset_ms", "reset_ms_by_task",
+            "subgoal_samples",
             "subgoal_base_step_ms", "subgoal_base_step_all_ms", "subgoal_base_plan_rate", "base_step_vs_floor",
             "subgoal_arm_step_ms", "subgoal_arm_step_all_ms", "subgoal_arm_plan_rate", "arm_step_vs_floor"}
 ENV_NULLABLE = {"subgoal_base_step_ms", "base_step_vs_floor", "subgoal_arm_step_ms", "arm_step_vs_floor"}

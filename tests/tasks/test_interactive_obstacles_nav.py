@@ -165,6 +165,8 @@ def test_driving_into_a_box_ends_a_joint_episode(joint_env):
     assert info["collisions"]
 
 
+@pytest.mark.slow  # a wall-clock bound: opt-in, it flakes on a loaded machine
+@pytest.mark.skipif(os.environ.get("RELMOGEN_SLOW") != "1", reason="slow: set RELMOGEN_SLOW=1")
 def test_reset_is_fast(joint_env):
     env, times = joint_env, []
     for seed in range(20):
