@@ -81,10 +81,12 @@ def test_planner_rates_and_per_backend_figures(planner_result):
 def test_env_bench_json_has_subgoal_figures(capsys):
     result = run_json(capsys, "bench", "env", "--json", "--samples", "3", "--subgoal-samples", "2")
     assert ENV_KEYS <= set(result)
-    for key in ENV_KEYS - {"task"}:
+    for key in ENV_KEYS - {"task", "reset_ms_by_task"}:
         if key in ENV_NULLABLE and result[key] is None:
             continue
         assert math.isfinite(result[key]) and result[key] >= 0, key
+    assert len(result["reset_ms_by_task"]) == 7
+    assert all(math.isfinite(v) and v > 0 for v in result["reset_ms_by_task"].values())
     assert_rate(result["subgoal_base_plan_rate"])
     assert_rate(result["subgoal_arm_plan_rate"])
 
