@@ -15,8 +15,8 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 PRESET_DIR = Path(__file__).resolve().parent.parent / "configs" / "presets"
-ALGOS = ("relmogen-r", "sac", "oac")
-CONTROL_OF_ALGO = {"relmogen-r": "subgoal-r", "sac": "joint", "oac": "joint"}
+ALGOS = ("relmogen-r", "relmogen-d", "sac", "oac")
+CONTROL_OF_ALGO = {"relmogen-r": "subgoal-r", "relmogen-d": "subgoal-d", "sac": "joint", "oac": "joint"}
 
 
 class _Strict(BaseModel):
@@ -45,17 +45,28 @@ class AlgoConfig(_Strict):
     net_arch: list[int] = Field(default_factory=lambda: [256, 256])
     beta_ub: float | None = None  # OAC only
     delta: float | None = None  # OAC only
+    # DQN (relmogen-d) only
+    target_update_interval: int | None = Field(None, ge=1)
+    max_grad_norm: float | None = Field(None, gt=0)
+    exploration_initial_eps: float | None = Field(None, ge=0, le=1)
+    exploration_final_eps: float | None = Field(None, ge=0, le=1)
+    exploration_steps: int | None = Field(None, ge=1)  # linear epsilon decay length (our choice)
+    qmap_widths: list[int] | None = None
+    qmap_head_width: int | None = None
 
 
 class RunSettings(_Strict):
     eval_every_episodes: int = Field(100, ge=1)
     eval_episodes: int = Field(10, ge=1)
     checkpoint_every_episodes: int = Field(20, ge=1)
+    # One learner thread: on a 2-core machine shared with the environment workers, two torch
+    # threads made updates about 2.4x slower (measured under load).
+    torch_threads: int = Field(1, ge=1)
 
 
 class TrainConfig(_Strict):
     task: str
-    algo: Literal["relmogen-r", "sac", "oac"]
+    algo: Literal["relmogen-r", "relmogen-d", "sac", "oac"]
     seed: int = 0
     preset: str = "cpu"
     episodes: int = Field(1000, ge=1)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from relmogen.agents.dqn import env_policy
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import TrainConfig, read_config
 from relmogen.experiments.rollout import aggregate, run_episodes
@@ -22,9 +23,12 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
+    if config.algo == "relmogen-d":
+        act = env_policy(model, env)  # greedy over the free base cells only
+    else:
+        act = lambda obs: model.predict(obs, deterministic=True)[0]  # noqa: E731
     try:
-        records = run_episodes(env, lambda obs: model.predict(obs, deterministic=True)[0], episodes, seed, quiet,
-                               description=f"eval {config.task}")
+        records = run_episodes(env, act, episodes, seed, quiet, description=f"eval {config.task}")
     finally:
         env.close()
     settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name}

@@ -25,6 +25,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from torch.utils.tensorboard import SummaryWriter
 
+from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.networks import SGPREncoder
 from relmogen.agents.sac import OAC, SharedEncoderSAC
 from relmogen.envs.relmogen_env import RelmogenEnv
@@ -62,6 +63,9 @@ def make_training_env(config: TrainConfig):
 
 
 def build_model(config: TrainConfig, env):
+    th.set_num_threads(config.run.torch_threads)
+    if config.algo == "relmogen-d":
+        return build_dqn(config, env)
     params = config.algo_params
     policy_kwargs = dict(features_extractor_class=SGPREncoder, normalize_images=False, net_arch=params.net_arch)
     common = dict(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
@@ -74,8 +78,24 @@ def build_model(config: TrainConfig, env):
     return SharedEncoderSAC(**common)
 
 
+def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
+    from relmogen.tasks import task_class
+
+    params = config.algo_params
+    policy_kwargs = {key: value for key, value in
+                     (("widths", params.qmap_widths), ("head_width", params.qmap_head_width)) if value is not None}
+    optional = {key: getattr(params, key) for key in
+                ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
+                 "exploration_steps") if getattr(params, key) is not None}
+    return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
+                       batch_size=params.batch_size, gamma=params.gamma, learning_starts=params.learning_starts,
+                       train_freq=params.train_freq, gradient_steps=params.gradient_steps, tau=params.tau,
+                       subgoal_parts=task_class(config.task).subgoal_parts, policy_kwargs=policy_kwargs,
+                       seed=config.seed, device=resolve_device(config.device), verbose=0, **optional)
+
+
 def model_class(config: TrainConfig):
-    return OAC if config.algo == "oac" else SharedEncoderSAC
+    return {"oac": OAC, "relmogen-d": RelmogenDQN}.get(config.algo, SharedEncoderSAC)
 
 
 # ------------------------------------------------------------------------ checkpoints

@@ -40,6 +40,10 @@ class ArmConfig:
     planner: str = "rrt_connect"
     ik_iterations: int = 100
     ik_restarts: int = 50  # IK attempts: the first from the current pose, the others random
+    # When the joint-space planner finds no path to an IK solution, try another IK solution
+    # (a random seed): with the paper's 20-iteration RRT-Connect, reaching over a table edge
+    # fails for some solutions and not for others. 1 = the original behaviour.
+    plan_attempts: int = 3
     ik_tolerance: float = 0.05  # metres, forward-kinematics check
     joint_resolution: float = 0.05  # rad (m for the torso): planner step
     collision_checking: bool = True  # the paper trains without it and evaluates with it
@@ -201,10 +205,11 @@ class ArmMotion:
             return self.checker
         return lambda q: not self.checker.within_limits(np.asarray(q))
 
-    def solve_ik(self, target_xyz: np.ndarray, rng: np.random.Generator):
+    def solve_ik(self, target_xyz: np.ndarray, rng: np.random.Generator, from_current: bool = True):
         cfg = self.config
         valid = (lambda q: not self.checker(q)) if cfg.collision_checking else None
-        return self.ik_solver.solve(target_xyz, rng, cfg.ik_iterations, cfg.ik_restarts, cfg.ik_tolerance, valid)
+        return self.ik_solver.solve(target_xyz, rng, cfg.ik_iterations, cfg.ik_restarts, cfg.ik_tolerance, valid,
+                                    from_current)
 
     def ik(self, target_xyz: np.ndarray, rng: np.random.Generator) -> Config | None:
         """Planning-joint configuration putting the gripper within tolerance of the target."""
@@ -228,11 +233,15 @@ class ArmMotion:
         """IK, plan, move to the target, push, come back. ``on_reached(path)`` is called when
         the gripper is at the target, before the push (the task may check it there)."""
         start = time.perf_counter()
-        ik = self.solve_ik(np.asarray(target_xyz_world, dtype=np.float64), rng)
-        if ik.config is None:
-            return ArmResult(False, ik.reason, planning_time_s=time.perf_counter() - start,
-                             wall_time_s=time.perf_counter() - start)
-        plan = self.plan(ik.config, rng)
+        target = np.asarray(target_xyz_world, dtype=np.float64)
+        for attempt in range(self.config.plan_attempts):
+            ik = self.solve_ik(target, rng, from_current=attempt == 0)
+            if ik.config is None:
+                return ArmResult(False, ik.reason, planning_time_s=time.perf_counter() - start,
+                                 wall_time_s=time.perf_counter() - start)
+            plan = self.plan(ik.config, rng)
+            if plan.success:
+                break
         planning_time = time.perf_counter() - start
         if not plan.success:
             return ArmResult(False, f"no arm plan: {plan.reason}", planning_time_s=planning_time,

@@ -98,8 +98,10 @@ class ArmIK:
     # ------------------------------------------------------------------ solvers
 
     def solve(self, target: np.ndarray, rng: np.random.Generator, iterations: int, attempts: int,
-              tolerance: float, is_valid: Callable[[Config], bool] | None = None) -> IKResult:
-        """First attempt seeded from the current pose, then random seeds and rest poses.
+              tolerance: float, is_valid: Callable[[Config], bool] | None = None,
+              from_current: bool = True) -> IKResult:
+        """First attempt seeded from the current pose (unless ``from_current`` is false), then
+        random seeds and rest poses.
 
         A candidate is accepted when its forward-kinematics error is at most ``tolerance`` and
         ``is_valid(q)`` (e.g. collision-free) holds. The planning joints are restored.
@@ -109,8 +111,9 @@ class ArmIK:
         best_error, reachable = np.inf, False
         try:
             for attempt in range(attempts):
-                seed = saved[0] if attempt == 0 else self.random_config(rng)
-                rest = saved[0] if attempt == 0 else self.random_config(rng)
+                current = attempt == 0 and from_current
+                seed = saved[0] if current else self.random_config(rng)
+                rest = saved[0] if current else self.random_config(rng)
                 q = self._into_limits(self._raw_ik(target, seed, rest, iterations))
                 error = float(np.linalg.norm(self.end_effector_at(q) - target))
                 best_error = min(best_error, error)

@@ -6,7 +6,7 @@ from relmogen.experiments.config import available_presets, resolve_config
 def test_presets_exist_and_validate():
     assert {"paper", "cpu", "tiny"} <= set(available_presets())
     for preset in available_presets():
-        for algo in ("relmogen-r", "sac", "oac"):
+        for algo in ("relmogen-r", "relmogen-d", "sac", "oac"):
             resolve_config("PushDoorNav", algo, preset=preset)
 
 

@@ -21,7 +21,7 @@ def episodes_in(run_dir: Path) -> list[int]:
         return [int(row["episode"]) for row in csv.DictReader(handle)]
 
 
-@pytest.mark.parametrize("algo,episodes", [("sac", 20), ("oac", 20), ("relmogen-r", 3)])
+@pytest.mark.parametrize("algo,episodes", [("sac", 20), ("oac", 20), ("relmogen-r", 3), ("relmogen-d", 3)])
 def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     config = resolve_config("PointNav", algo, seed=0, preset="tiny", episodes=episodes)
     run_dir = train(config, tmp_path, quiet=True)

@@ -1,0 +1,324 @@
+"""SGP-D: Double DQN over dense per-pixel Q maps (``relmogen-d``; facts sheet sections 5-6).
+
+``RelmogenDQN`` is SB3's ``DQN`` with
+  * ``QMapDQNPolicy``: online and target nets are ``QMapNetwork`` (two conv branches, two
+    deconvolutions to (L + K) Q x Q maps; ``relmogen/agents/qmap_network.py``);
+  * Double DQN targets: the online net picks the next action, the target net values it;
+    Huber loss, gradient-norm clip 10, hard target update every 1024 steps (``tau = 1``),
+    epsilon from 0.8 to 0.04 (the paper's hyperparameters are the defaults), linearly over
+    ``exploration_steps`` environment steps when given;
+  * base masking: base actions whose cell is occupied (``info["base_mask"]`` False) are
+    never chosen, neither greedily (Q set to -inf) nor at random (uniform over the allowed
+    actions), nor as the online argmax of the Double DQN target (the replay buffer keeps the
+    next state's mask). Actions of a part the task does not use (``subgoal_parts``) are
+    masked the same way.
+
+The mask is not part of the observation: ``BaseMaskTracker``, a ``VecEnvWrapper`` that
+``RelmogenDQN`` puts around every environment it is given (``_wrap_env``), records the latest
+``base_mask`` of each sub-environment from the step infos, or from the VecEnv's
+``reset_infos`` after a (auto-)reset. ``predict(obs, base_mask=...)`` takes masks explicitly
+(without one every base cell is allowed); ``env_policy(model, env)`` reads them from a single
+environment for evaluation.
+
+``QMapReplayBuffer`` stores depth as float16 (<= 3 m: step <= 2 mm) and the next state's base
+mask; SB3's ``optimize_memory_usage`` is not available for Dict observations.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+import torch as th
+from gymnasium import spaces
+from stable_baselines3 import DQN
+from stable_baselines3.common.buffers import DictReplayBuffer
+from stable_baselines3.common.policies import BasePolicy
+from stable_baselines3.common.type_aliases import TensorDict
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, is_vecenv_wrapped
+from stable_baselines3.dqn.policies import DQNPolicy
+from torch.nn import functional as F
+
+from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
+from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
+
+ALL_PARTS = ("base", "arm")
+
+
+def map_side(n_actions: int) -> int:
+    """Q from the size of the Discrete space, (L + K) * Q * Q."""
+    q = math.isqrt(n_actions // NUM_MAPS)
+    if NUM_MAPS * q * q != n_actions:
+        raise ValueError(f"{n_actions} actions is not {NUM_MAPS} maps of Q x Q")
+    return q
+
+
+# ------------------------------------------------------------------------- masks
+def allowed_actions(base_masks: th.Tensor, parts: tuple[str, ...] = ALL_PARTS) -> th.Tensor:
+    """(N, Q, Q) bool free base cells -> (N, (L + K) * Q * Q) bool allowed actions.
+
+    Base actions are allowed where the cell is free (every yaw bin), arm actions everywhere;
+    a part not in ``parts`` is disallowed. A row left with nothing allowed (no free cell in a
+    base-only task) falls back to every action of the used parts.
+    """
+    n, q = base_masks.shape[0], base_masks.shape[-1]
+    base = base_masks.reshape(n, 1, q * q).expand(n, YAW_BINS, q * q).reshape(n, -1) & ("base" in parts)
+    arm = th.full((n, PUSH_BINS * q * q), "arm" in parts, dtype=th.bool, device=base_masks.device)
+    allowed = th.cat([base, arm], dim=1)
+    empty = ~allowed.any(dim=1)
+    if empty.any():
+        allowed[empty, : YAW_BINS * q * q] = "base" in parts
+    return allowed
+
+
+def masked_argmax(q_values: th.Tensor, allowed: th.Tensor) -> th.Tensor:
+    """Greedy action among the allowed ones: (N, A), (N, A) bool -> (N,) long."""
+    return q_values.masked_fill(~allowed, -th.inf).argmax(dim=1)
+
+
+def sample_allowed(allowed: np.ndarray) -> np.ndarray:
+    """One action per row, uniform over that row's allowed actions (``np.random``, seeded by SB3)."""
+    return np.array([np.random.choice(np.flatnonzero(row)) for row in allowed], dtype=np.int64)
+
+
+def masks_from_infos(infos, q: int) -> np.ndarray:
+    """(N, Q, Q) bool from a list of info dicts; all free where an info has no ``base_mask``."""
+    return np.stack([np.asarray(info.get("base_mask", np.ones((q, q), bool)), dtype=bool) for info in infos])
+
+
+class BaseMaskTracker(VecEnvWrapper):
+    """Records ``base_masks`` (n_envs, Q, Q): each sub-environment's latest ``info["base_mask"]``."""
+
+    def __init__(self, venv: VecEnv):
+        super().__init__(venv)
+        self.q = map_side(int(venv.action_space.n))
+        self.base_masks = np.ones((venv.num_envs, self.q, self.q), dtype=bool)
+
+    def reset(self):
+        observations = self.venv.reset()
+        self.reset_infos = self.venv.unwrapped.reset_infos
+        self.base_masks = masks_from_infos(self.reset_infos, self.q)
+        return observations
+
+    def step_wait(self):
+        observations, rewards, dones, infos = self.venv.step_wait()
+        self.reset_infos = self.venv.unwrapped.reset_infos
+        for index, done in enumerate(dones):
+            source = self.reset_infos[index] if done else infos[index]
+            if "base_mask" in source:
+                self.base_masks[index] = source["base_mask"]
+        return observations, rewards, dones, infos
+
+
+def env_policy(model: RelmogenDQN, env, deterministic: bool = True):
+    """``obs -> action`` for a single (unvectorised) ``RelmogenEnv``, masked with its current
+    ``base_mask`` (read from ``env.unwrapped.control``), e.g. for ``rollout.run_episodes``."""
+    control = env.unwrapped.control
+
+    def act(obs):
+        return model.predict(obs, deterministic=deterministic, base_mask=control.extra_info()["base_mask"])[0]
+
+    return act
+
+
+# ------------------------------------------------------------------------ policy
+class QMapQNetwork(BasePolicy):
+    """SB3's ``QNetwork`` interface (``forward`` -> Q values, ``_predict`` -> argmax) over a ``QMapNetwork``."""
+
+    def __init__(self, observation_space: spaces.Dict, action_space: spaces.Discrete,
+                 widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128,
+                 normalize_images: bool = False):
+        super().__init__(observation_space, action_space, normalize_images=False)  # the net scales its inputs
+        self.widths, self.head_width = tuple(widths), int(head_width)
+        self.net = QMapNetwork(observation_space, self.widths, self.head_width)
+        if self.net.n_actions != action_space.n:
+            raise ValueError(f"Q maps give {self.net.n_actions} actions, the action space has {action_space.n}")
+
+    def forward(self, obs: TensorDict) -> th.Tensor:
+        return self.net(obs)
+
+    def _predict(self, observation: TensorDict, deterministic: bool = True) -> th.Tensor:
+        return self(observation).argmax(dim=1).reshape(-1)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width)
+
+
+class QMapDQNPolicy(DQNPolicy):
+    """``DQNPolicy`` whose ``q_net`` and ``q_net_target`` are ``QMapQNetwork``s (no features extractor)."""
+
+    def __init__(self, observation_space: spaces.Dict, action_space: spaces.Discrete, lr_schedule,
+                 widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128, **kwargs: Any):
+        self.widths, self.head_width = tuple(widths), int(head_width)
+        kwargs["normalize_images"] = False
+        super().__init__(observation_space, action_space, lr_schedule, **kwargs)
+
+    def make_q_net(self) -> QMapQNetwork:
+        return QMapQNetwork(self.observation_space, self.action_space, self.widths, self.head_width).to(self.device)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width)
+
+
+# ------------------------------------------------------------------ replay buffer
+class QMapReplaySamples(NamedTuple):
+    observations: TensorDict
+    actions: th.Tensor
+    next_observations: TensorDict
+    dones: th.Tensor
+    rewards: th.Tensor
+    discounts: th.Tensor | None = None
+    next_base_masks: th.Tensor | None = None
+
+
+class QMapReplayBuffer(DictReplayBuffer):
+    """``DictReplayBuffer`` with float16 ``depth`` and the next state's base mask per transition."""
+
+    def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Discrete,
+                 *args: Any, **kwargs: Any):
+        super().__init__(buffer_size, observation_space, action_space, *args, **kwargs)
+        for store in (self.observations, self.next_observations):
+            if "depth" in store:
+                store["depth"] = np.zeros(store["depth"].shape, dtype=np.float16)
+        q = map_side(int(action_space.n))
+        self.next_base_masks = np.ones((self.buffer_size, self.n_envs, q, q), dtype=bool)
+
+    def add(self, obs, next_obs, action, reward, done, infos) -> None:
+        self.next_base_masks[self.pos] = masks_from_infos(infos, self.next_base_masks.shape[-1])
+        super().add(obs, next_obs, action, reward, done, infos)
+
+    def nbytes(self) -> int:
+        """Bytes held by the stored arrays."""
+        arrays = [*self.observations.values(), *self.next_observations.values(), self.actions, self.rewards,
+                  self.dones, self.timeouts, self.next_base_masks]
+        return int(sum(array.nbytes for array in arrays))
+
+    def _batch(self, store: dict[str, np.ndarray], rows, envs, env) -> TensorDict:
+        obs = self._normalize_obs({key: array[rows, envs] for key, array in store.items()}, env)
+        return {key: self.to_torch(value.astype(np.float32) if value.dtype == np.float16 else value)
+                for key, value in obs.items()}
+
+    def _get_samples(self, batch_inds: np.ndarray, env=None) -> QMapReplaySamples:
+        envs = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
+        dones = self.dones[batch_inds, envs] * (1 - self.timeouts[batch_inds, envs])
+        rewards = self._normalize_reward(self.rewards[batch_inds, envs].reshape(-1, 1), env)
+        return QMapReplaySamples(
+            observations=self._batch(self.observations, batch_inds, envs, env),
+            actions=self.to_torch(self.actions[batch_inds, envs]),
+            next_observations=self._batch(self.next_observations, batch_inds, envs, env),
+            dones=self.to_torch(dones).reshape(-1, 1),
+            rewards=self.to_torch(rewards),
+            next_base_masks=self.to_torch(self.next_base_masks[batch_inds, envs]),
+        )
+
+
+# --------------------------------------------------------------------- algorithm
+class RelmogenDQN(DQN):
+    """SB3 DQN + Double DQN targets + base-mask-aware exploration and greedy choice (module doc)."""
+
+    def __init__(self, policy=QMapDQNPolicy, env=None, *, subgoal_parts: tuple[str, ...] = ALL_PARTS,
+                 learning_rate: float = 2.5e-4, buffer_size: int = 10_000, batch_size: int = 512,
+                 gamma: float = 0.99, target_update_interval: int = 1024, tau: float = 1.0,
+                 max_grad_norm: float = 10.0, exploration_initial_eps: float = 0.8,
+                 exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
+                 replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
+        self.subgoal_parts = tuple(subgoal_parts)
+        self.exploration_steps = exploration_steps
+        super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
+                         gamma=gamma, target_update_interval=target_update_interval, tau=tau,
+                         max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
+                         exploration_final_eps=exploration_final_eps, replay_buffer_class=replay_buffer_class,
+                         **kwargs)
+
+    def _setup_model(self) -> None:
+        self.subgoal_parts = tuple(self.subgoal_parts)  # ``load`` restores it from JSON as a list
+        super()._setup_model()
+
+    @staticmethod
+    def _wrap_env(env, verbose: int = 0, monitor_wrapper: bool = True) -> VecEnv:
+        env = DQN._wrap_env(env, verbose, monitor_wrapper)
+        return env if is_vecenv_wrapped(env, BaseMaskTracker) else BaseMaskTracker(env)
+
+    @property
+    def q(self) -> int:
+        return map_side(int(self.action_space.n))
+
+    def tracked_base_masks(self, n_envs: int) -> np.ndarray:
+        tracker = self.env if isinstance(self.env, BaseMaskTracker) else None
+        if tracker is None or tracker.base_masks.shape[0] != n_envs:
+            return np.ones((n_envs, self.q, self.q), dtype=bool)
+        return tracker.base_masks.copy()
+
+    def allowed(self, base_masks: np.ndarray | th.Tensor, n: int) -> th.Tensor:
+        masks = th.as_tensor(np.asarray(base_masks, dtype=bool), device=self.device).reshape(n, self.q, self.q)
+        return allowed_actions(masks, self.subgoal_parts)
+
+    # ---------------------------------------------------------------- acting
+    def _on_step(self) -> None:
+        """SB3's target update and epsilon; with ``exploration_steps`` epsilon decays linearly over that
+        many environment steps instead of a fraction of ``total_timesteps`` (which ``relmogen train``
+        sets to 1e12)."""
+        super()._on_step()
+        if self.exploration_steps:
+            progress = min(1.0, self.num_timesteps / self.exploration_steps)
+            start, end = self.exploration_initial_eps, self.exploration_final_eps
+            self.exploration_rate = start + progress * (end - start)
+            self.logger.record("rollout/exploration_rate", self.exploration_rate)
+
+    def _sample_action(self, learning_starts: int, action_noise=None, n_envs: int = 1):
+        masks = self.tracked_base_masks(n_envs)
+        if self.num_timesteps < learning_starts:
+            action = sample_allowed(self.allowed(masks, n_envs).cpu().numpy())
+        else:
+            action, _ = self.predict(self._last_obs, deterministic=False, base_mask=masks)
+        return action, action
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False,
+                base_mask: np.ndarray | None = None):
+        """Epsilon-greedy (one coin per observation) over allowed actions; ``base_mask`` (N, Q, Q) or (Q, Q)."""
+        self.policy.set_training_mode(False)
+        obs, vectorized = self.policy.obs_to_tensor(observation)
+        n = next(iter(obs.values())).shape[0]
+        masks = np.ones((n, self.q, self.q), dtype=bool) if base_mask is None else base_mask
+        allowed = self.allowed(masks, n)
+        explore = np.zeros(n, bool) if deterministic else np.random.rand(n) < self.exploration_rate
+        actions = np.empty(n, dtype=np.int64)
+        if not explore.all():
+            with th.no_grad():
+                actions[:] = masked_argmax(self.q_net(obs), allowed).cpu().numpy()
+        if explore.any():
+            actions[explore] = sample_allowed(allowed[th.as_tensor(explore)].cpu().numpy())
+        return (actions if vectorized else actions[0]), state
+
+    # -------------------------------------------------------------- learning
+    def double_dqn_targets(self, data) -> th.Tensor:
+        """r + gamma (1 - done) Q_target(s', argmax_a' Q_online(s', a')), argmax over allowed a'."""
+        with th.no_grad():
+            online = self.q_net(data.next_observations)
+            masks = getattr(data, "next_base_masks", None)
+            if masks is None:
+                masks = th.ones((online.shape[0], self.q, self.q), dtype=th.bool, device=online.device)
+            best = masked_argmax(online, allowed_actions(masks, self.subgoal_parts)).reshape(-1, 1)
+            next_q = self.q_net_target(data.next_observations).gather(1, best)
+            discounts = data.discounts if data.discounts is not None else self.gamma
+            return data.rewards + (1 - data.dones) * discounts * next_q
+
+    def train(self, gradient_steps: int, batch_size: int = 100) -> None:
+        self.policy.set_training_mode(True)
+        self._update_learning_rate(self.policy.optimizer)
+        losses = [self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env))
+                  for _ in range(gradient_steps)]
+        self._n_updates += gradient_steps
+        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
+        self.logger.record("train/loss", float(np.mean(losses)))
+
+    def _gradient_step(self, data) -> float:
+        targets = self.double_dqn_targets(data)
+        current = self.q_net(data.observations).gather(1, data.actions.long())
+        loss = F.smooth_l1_loss(current, targets)
+        self.policy.optimizer.zero_grad()
+        loss.backward()
+        th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
+        self.policy.optimizer.step()
+        return loss.item()

@@ -1,0 +1,245 @@
+"""SGP-D (``relmogen-d``): Q-map index layout, Double DQN targets, base masking, end to end."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+from gymnasium import spaces
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from relmogen.agents.dqn import (
+    BaseMaskTracker,
+    QMapReplayBuffer,
+    QMapReplaySamples,
+    RelmogenDQN,
+    allowed_actions,
+    env_policy,
+)
+from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
+from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.envs.subgoal_controls import YAW_BINS
+
+SIZE = 64
+Q = SIZE // 4
+SMALL_NET = {"widths": (8, 16, 16, 32), "head_width": 32}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def one_torch_thread():
+    """Two OpenMP threads on a loaded 2-core machine run ~50x slower than one."""
+    threads = th.get_num_threads()
+    th.set_num_threads(1)
+    yield
+    th.set_num_threads(threads)
+
+
+def make_env(audit=None):
+    env = RelmogenEnv(task="PointNav", control="subgoal-d", image_size=SIZE, episode_steps=5)
+    return env if audit is None else MaskAudit(env, audit)
+
+
+@pytest.fixture(scope="module")
+def model():
+    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
+                      policy_kwargs=SMALL_NET, seed=0)
+    yield dqn
+    dqn.env.close()
+
+
+def random_batch(space: spaces.Dict, n: int, seed: int = 0) -> dict[str, th.Tensor]:
+    space.seed(seed)
+    samples = [space.sample() for _ in range(n)]
+    return {key: th.as_tensor(np.stack([s[key] for s in samples])) for key in space.spaces}
+
+
+def few_free_cells(n: int, cells=((0, 0), (5, 9), (15, 15))) -> np.ndarray:
+    masks = np.zeros((n, Q, Q), dtype=bool)
+    for i, j in cells:
+        masks[:, i, j] = True
+    return masks
+
+
+# ------------------------------------------------------------------ (a) index layout
+def test_decode_encode_round_trip(model):
+    control = model.env.unwrapped.envs[0].unwrapped.control
+    assert control.q == Q and control.action_space.n == NUM_MAPS * Q * Q
+    for index in np.random.default_rng(0).integers(0, control.action_space.n, 500):
+        assert control.encode(*control.decode(int(index))) == index
+
+
+def test_flat_q_values_follow_the_env_index_order(model):
+    control = model.env.unwrapped.envs[0].unwrapped.control
+    net = model.q_net.net
+    captured = {}
+    handle = net.head.register_forward_hook(lambda module, inputs, output: captured.update(maps=output))
+    obs = random_batch(model.observation_space, 3)
+    with th.no_grad():
+        q_values = net(obs)
+    handle.remove()
+    maps = captured["maps"]
+    assert maps.shape == (3, NUM_MAPS, Q, Q) and q_values.shape == (3, control.action_space.n)
+    for index in np.random.default_rng(1).integers(0, control.action_space.n, 300):
+        part, bin_, i, j = control.decode(int(index))
+        channel = bin_ if part == "base" else YAW_BINS + bin_
+        assert th.equal(q_values[:, index], maps[:, channel, i, j])
+
+
+def test_channels_last_and_channels_first_observations_agree():
+    first = spaces.Dict({"rgb": spaces.Box(0, 255, (3, SIZE, SIZE), np.uint8),
+                         "depth": spaces.Box(0.0, 3.0, (SIZE, SIZE, 1), np.float32),
+                         "local_map": spaces.Box(0, 255, (2, SIZE, SIZE), np.uint8)})
+    last = spaces.Dict({"rgb": spaces.Box(0, 255, (SIZE, SIZE, 3), np.uint8), "depth": first["depth"],
+                        "local_map": spaces.Box(0, 255, (SIZE, SIZE, 2), np.uint8)})
+    net_first, net_last = QMapNetwork(first, **SMALL_NET), QMapNetwork(last, **SMALL_NET)
+    net_last.load_state_dict(net_first.state_dict())
+    obs = random_batch(first, 2)
+    obs_last = dict(obs, rgb=obs["rgb"].permute(0, 2, 3, 1), local_map=obs["local_map"].permute(0, 2, 3, 1))
+    with th.no_grad():
+        assert th.allclose(net_first(obs), net_last(obs_last))
+
+
+# --------------------------------------------------------------- (b) Double DQN target
+def test_double_dqn_target_uses_online_argmax_and_target_value(model):
+    th.manual_seed(1)
+    for parameter in model.q_net_target.parameters():  # make the two nets differ
+        parameter.data.normal_(0.0, 0.1)
+    n = 6
+    masks = th.ones((n, Q, Q), dtype=th.bool)
+    masks[:3] = th.as_tensor(few_free_cells(3))
+    data = QMapReplaySamples(observations=random_batch(model.observation_space, n, seed=1), actions=th.zeros(n, 1),
+                             next_observations=random_batch(model.observation_space, n, seed=2),
+                             dones=th.tensor([[0.0], [1.0], [0.0], [0.0], [1.0], [0.0]]),
+                             rewards=th.arange(n, dtype=th.float32).reshape(-1, 1), next_base_masks=masks)
+    with th.no_grad():
+        online = model.q_net(data.next_observations)
+        target_values = model.q_net_target(data.next_observations)
+    allowed = allowed_actions(masks, model.subgoal_parts)
+    expected = []
+    for b in range(n):
+        best = int(th.where(allowed[b], online[b], -th.inf).argmax())
+        not_done = 1 - float(data.dones[b])
+        expected.append(float(data.rewards[b]) + model.gamma * not_done * float(target_values[b, best]))
+    targets = model.double_dqn_targets(data)
+    np.testing.assert_allclose(targets.numpy().ravel(), expected, rtol=1e-5, atol=1e-6)
+    vanilla = data.rewards + (1 - data.dones) * model.gamma * target_values.max(dim=1, keepdim=True).values
+    assert not th.allclose(targets, vanilla)  # the test tells Double DQN from plain DQN
+
+
+# ------------------------------------------------------------- (c) masked exploration
+def assert_base_actions_free(actions: np.ndarray, masks: np.ndarray) -> int:
+    base = actions < YAW_BINS * Q * Q
+    cells = actions[base] % (Q * Q)
+    rows = np.flatnonzero(base)
+    assert masks.reshape(len(actions), -1)[rows, cells].all()
+    return int(base.sum())
+
+
+def test_random_exploration_never_picks_an_occupied_cell(model):
+    n = 500
+    obs = {key: value.numpy() for key, value in random_batch(model.observation_space, n).items()}
+    masks = few_free_cells(n)
+    model.exploration_rate = 1.0
+    actions = np.concatenate([model.predict(obs, deterministic=False, base_mask=masks)[0] for _ in range(8)])
+    base_count = assert_base_actions_free(actions, np.concatenate([masks] * 8))
+    assert 0 < base_count < len(actions)  # both parts are explored (base: 36 of 3,108 allowed actions)
+    model.env.reset()  # the tracker now holds the reset infos' base masks
+    warmup = np.concatenate([model._sample_action(learning_starts=10**9, n_envs=1)[0] for _ in range(300)])
+    assert_base_actions_free(warmup, np.repeat(model.env.base_masks, 300, axis=0))
+
+
+def test_greedy_choice_never_picks_an_occupied_cell(model):
+    head = model.q_net.net.head[-1]
+    saved = head.bias.detach().clone()
+    with th.no_grad():
+        head.bias[:YAW_BINS] += 1e3  # unmasked argmax: a base action, almost surely on an occupied cell
+    n = 50
+    obs = {key: value.numpy() for key, value in random_batch(model.observation_space, n).items()}
+    masks = few_free_cells(n)
+    model.exploration_rate = 0.0
+    try:
+        actions, _ = model.predict(obs, deterministic=False, base_mask=masks)
+        assert assert_base_actions_free(actions, masks) == n
+        unmasked, _ = model.predict(obs, deterministic=True)
+        assert not (masks.reshape(n, -1)[np.arange(n), unmasked % (Q * Q)]).all()
+    finally:
+        with th.no_grad():
+            head.bias.copy_(saved)
+
+
+def test_a_part_the_task_does_not_use_is_never_chosen(model):
+    masks = th.as_tensor(few_free_cells(2))
+    base_only = allowed_actions(masks, ("base",))
+    assert base_only.sum(dim=1).tolist() == [YAW_BINS * 3] * 2
+    arm_only = allowed_actions(masks, ("arm",))
+    assert not arm_only[:, : YAW_BINS * Q * Q].any() and arm_only[:, YAW_BINS * Q * Q:].all()
+    no_free = allowed_actions(th.zeros((1, Q, Q), dtype=th.bool), ("base",))
+    assert no_free[0, : YAW_BINS * Q * Q].all()  # nothing free: fall back to every base action
+
+
+# ------------------------------------------------------------------ replay memory
+def test_replay_buffer_stores_depth_as_float16_and_fits_the_paper_buffer():
+    size = 128
+    space = spaces.Dict({"rgb": spaces.Box(0, 255, (3, size, size), np.uint8),
+                         "depth": spaces.Box(0.0, 3.0, (size, size, 1), np.float32),
+                         "local_map": spaces.Box(0, 255, (2, size, size), np.uint8),
+                         "scan": spaces.Box(0.0, 1.0, (220,), np.float32),
+                         "task_obs": spaces.Box(-np.inf, np.inf, (55,), np.float32)})
+    buffer = QMapReplayBuffer(10_000, space, spaces.Discrete(NUM_MAPS * 32 * 32), device="cpu")
+    assert buffer.observations["depth"].dtype == np.float16
+    assert buffer.nbytes() < 2.5e9  # about 2.33 GB for 1e4 transitions at 128 px
+
+
+# ------------------------------------------------------------------- (d) end to end
+class MaskAudit(gym.Wrapper):
+    """Counts base actions sent to an occupied cell according to the latest ``info["base_mask"]``."""
+
+    def __init__(self, env, record: dict):
+        super().__init__(env)
+        self.record, self.mask = record, None
+
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        self.mask = info["base_mask"]
+        return obs, info
+
+    def step(self, action):
+        part, _, i, j = self.env.unwrapped.control.decode(int(action))
+        self.record["steps"] = self.record.get("steps", 0) + 1
+        self.record["violations"] = self.record.get("violations", 0) + int(part == "base" and not self.mask[i, j])
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        self.mask = info["base_mask"]
+        return obs, reward, terminated, truncated, info
+
+
+def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
+    record: dict = {}
+    venv = DummyVecEnv([lambda: make_env(record)])
+    model = RelmogenDQN(env=venv, buffer_size=300, batch_size=8, learning_starts=40, train_freq=4,
+                        gradient_steps=1, target_update_interval=64, exploration_steps=100,
+                        policy_kwargs=SMALL_NET, seed=0)
+    model.learn(200)
+    assert record == {"steps": 200, "violations": 0}
+    assert model._n_updates == len(range(44, 201, 4)) and np.isfinite(model.logger.name_to_value["train/loss"])
+    assert isinstance(model.env, BaseMaskTracker) and model.replay_buffer.pos == 200
+    assert model.exploration_rate == pytest.approx(0.04)  # decayed over exploration_steps=100
+    model.save(tmp_path / "model.zip")
+    model.save_replay_buffer(tmp_path / "replay.pkl")
+    loaded = RelmogenDQN.load(tmp_path / "model.zip", env=venv)
+    loaded.load_replay_buffer(tmp_path / "replay.pkl")
+    for key, value in model.q_net.state_dict().items():
+        assert th.equal(value, loaded.q_net.state_dict()[key])
+    assert loaded.subgoal_parts == model.subgoal_parts and loaded.replay_buffer.pos == 200
+    assert loaded.replay_buffer.observations["depth"].dtype == np.float16
+    np.testing.assert_array_equal(loaded.replay_buffer.next_base_masks, model.replay_buffer.next_base_masks)
+    obs = venv.reset()
+    np.testing.assert_array_equal(model.predict(obs, deterministic=True)[0], loaded.predict(obs, deterministic=True)[0])
+    loaded.learn(20, reset_num_timesteps=False)
+    assert loaded.num_timesteps == 220 and record["violations"] == 0
+    venv.close()
+    evaluation: dict = {}
+    env = make_env(evaluation)
+    act, (obs, _) = env_policy(loaded, env), env.reset(seed=3)
+    for _ in range(5):
+        obs = env.step(act(obs))[0]
+    assert evaluation == {"steps": 5, "violations": 0}
+    env.close()
