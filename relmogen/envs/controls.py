@@ -40,27 +40,14 @@ def validate_action(action, shape: tuple[int, ...]) -> np.ndarray:
     return arr
 
 
-class JointVelocityControl:
-    """Normalised joint velocities in [-1, 1] (out-of-range values are clipped)."""
+class Control:
+    """What one environment step means. Subclasses set ``action_space`` and
+    ``episode_steps`` and implement ``step``; the extras default to nothing."""
 
-    name = "joint"
-
-    def __init__(self, env: RelmogenEnv):
-        self.env = env
-        self.action_space = spaces.Box(-1.0, 1.0, (len(env.robot.controlled_joint_indices),), np.float32)
-        self.episode_steps = env.task.joint_steps
+    name: str
 
     def reset(self) -> None:
         pass
-
-    def step(self, action) -> StepOutcome:
-        command = np.clip(validate_action(action, self.action_space.shape), -1.0, 1.0)
-        self.env.robot.apply_normalized_velocity(command)
-        reward, terms, termination = self.env.simulate_control_step()
-        info = {}
-        if termination == "collision":
-            info["collisions"] = [c.describe(self.env.world.client) for c in self.env.collisions()]
-        return StepOutcome(reward, termination, terms, info)
 
     def extra_observation(self) -> dict[str, np.ndarray]:
         return {}
@@ -70,6 +57,26 @@ class JointVelocityControl:
 
     def extra_info(self) -> dict[str, np.ndarray]:
         return {}
+
+
+class JointVelocityControl(Control):
+    """Normalised joint velocities in [-1, 1] (out-of-range values are clipped)."""
+
+    name = "joint"
+
+    def __init__(self, env: RelmogenEnv):
+        self.env = env
+        self.action_space = spaces.Box(-1.0, 1.0, (len(env.robot.controlled_joint_indices),), np.float32)
+        self.episode_steps = env.task.joint_steps
+
+    def step(self, action) -> StepOutcome:
+        command = np.clip(validate_action(action, self.action_space.shape), -1.0, 1.0)
+        self.env.robot.apply_normalized_velocity(command)
+        reward, terms, termination = self.env.simulate_control_step()
+        info = {}
+        if termination == "collision":
+            info["collisions"] = [c.describe(self.env.world.client) for c in self.env.collisions()]
+        return StepOutcome(reward, termination, terms, info)
 
 
 CONTROL_NAMES = ("joint", "subgoal-r", "subgoal-d")

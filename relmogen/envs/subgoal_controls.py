@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from gymnasium import spaces
 
-from relmogen.envs.controls import StepOutcome, validate_action
+from relmogen.envs.controls import Control, StepOutcome, validate_action
 from relmogen.motion_generation.base_planner import FootprintChecker
 from relmogen.motion_generation.generator import MotionGenerator, MotionGeneratorConfig, SubgoalResult
 
@@ -72,7 +72,7 @@ class RewardAccumulator:
         self.pending = 0.0
 
 
-class SubgoalControl:
+class SubgoalControl(Control):
     """Shared execution of base and arm subgoals; subclasses decode actions."""
 
     name = "subgoal"
@@ -85,9 +85,6 @@ class SubgoalControl:
         config = MotionGeneratorConfig(base_planner=base_planner, arm_planner=arm_planner,
                                        arm_collision_checking=arm_collision)
         self.mg = MotionGenerator(env, config)
-
-    def reset(self) -> None:
-        pass
 
     def execute_base(self, goal_robot_frame: np.ndarray) -> tuple[SubgoalResult, RewardAccumulator]:
         rewards = RewardAccumulator(self.env)
@@ -113,15 +110,6 @@ class SubgoalControl:
         termination = "success" if task.terminates_on_success() and task.is_success() else None
         info = dict(result.as_info(), **extra)
         return StepOutcome(rewards.total, termination, rewards.terms, info)
-
-    def extra_observation(self) -> dict[str, np.ndarray]:
-        return {}
-
-    def extra_observation_space(self) -> dict[str, spaces.Space]:
-        return {}
-
-    def extra_info(self) -> dict[str, np.ndarray]:
-        return {}
 
 
 class SubgoalRControl(SubgoalControl):
