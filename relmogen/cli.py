@@ -6,6 +6,7 @@
                     [--gif PATH] [--json]
     relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
     relmogen bench planner [--problems N] [--seed S] [--json]
+    relmogen bench train [--task T] [--updates N] [--json]
     relmogen train --task T --algo A [--seed S] [--preset P] [--episodes N] [--max-hours H]
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--episodes N] [--base-planner X] [--arm-planner Y]
@@ -96,10 +97,16 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "env":
         from relmogen.bench.env_bench import bench_env
 
-        result = bench_env(task=args.task, samples=args.samples, image_size=args.image_size, seed=args.seed,
+        result = bench_env(task=args.task or "PointNav", samples=args.samples, image_size=args.image_size, seed=args.seed,
                            subgoal_samples=args.subgoal_samples)
     elif args.what == "planner":
         return _bench_planner(args)
+    elif args.what == "train":
+        from relmogen.bench.train_bench import bench_train
+
+        result = bench_train(task=args.task or "PushDoorNav", updates=args.updates)
+        print(json.dumps(result, sort_keys=True) if args.json else json.dumps(result, indent=1))
+        return 0
     else:  # argparse restricts the choices
         raise AssertionError(args.what)
     _print_metrics(result, args.json, f"bench {args.what}")
@@ -181,8 +188,10 @@ def build_parser() -> argparse.ArgumentParser:
     report.set_defaults(func=cmd_report)
 
     bench = sub.add_parser("bench", help="speed benchmarks")
-    bench.add_argument("what", choices=["env", "planner"])
-    bench.add_argument("--task", default="PointNav", help="env: task of the joint-velocity steps")
+    bench.add_argument("what", choices=["env", "planner", "train"])
+    bench.add_argument("--task", default=None,
+                       help="env: task of the joint-velocity steps (PointNav); train: task (PushDoorNav)")
+    bench.add_argument("--updates", type=_positive_int, default=10, help="train: gradient steps timed per run")
     bench.add_argument("--samples", type=_positive_int, default=200, help="env: joint-velocity steps")
     bench.add_argument("--image-size", type=_positive_int, default=128, help="env: camera resolution")
     bench.add_argument("--subgoal-samples", type=_non_negative_int, default=20,

@@ -94,3 +94,12 @@ def test_env_bench_json_has_subgoal_figures(capsys):
 def test_planner_cli_rejects_zero_problems(capsys):
     with pytest.raises(SystemExit):
         main(["bench", "planner", "--problems", "0"])
+
+
+def test_train_bench_times_updates_and_env_steps():
+    from relmogen.bench.train_bench import bench_one
+
+    result = bench_one("PointNav", "relmogen-r", "tiny", updates=2)
+    for key in ("env_steps_per_s", "updates_per_s", "stock_sb3_sac_updates_per_s", "shared_encoder_speedup"):
+        assert math.isfinite(result[key]) and result[key] > 0, key
+    assert result["image_size"] == 64 and result["batch_size"] == 8

@@ -29,8 +29,6 @@ def settle(env, seconds: float) -> None:
     env.world.step(int(round(seconds / env.world.time_step)))
 
 
-
-
 @pytest.mark.parametrize("scene", ["house_A", "house_B"])
 def test_reset_pulls_chairs_out_at_distinct_gaps_clear_of_everything(scene):
     env = RelmogenEnv(task=TASK, control="joint", scene=scene, image_size=64)

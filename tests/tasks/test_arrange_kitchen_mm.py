@@ -34,8 +34,6 @@ def stand_at(env, cabinet) -> None:
     env._observe()
 
 
-
-
 @pytest.mark.parametrize("scene", ["house_A", "house_B"])
 def test_reset_opens_every_item_along_the_kitchen_walls(scene):
     env = RelmogenEnv(task="ArrangeKitchenMM", control="joint", scene=scene, image_size=64)
@@ -58,8 +56,6 @@ def test_reset_opens_every_item_along_the_kitchen_walls(scene):
         p.performCollisionDetection(physicsClientId=env.world.client)
         assert not env.collisions()
     env.close()
-
-
 
 
 def test_closing_is_rewarded_as_a_potential_and_counted_in_the_metrics(joint_env):

@@ -51,8 +51,6 @@ def press_action(env, length: float = 0.2):
     return arm_action(env, button.face_centre(), -length * np.append(button.out_normal, 0.0))
 
 
-
-
 @pytest.mark.parametrize("scene", ["office_A", "office_B"])
 def test_button_is_on_the_corridor_wall_next_to_the_door(scene):
     env = RelmogenEnv(task="ButtonDoorNav", control="joint", scene=scene, image_size=64)
@@ -72,8 +70,6 @@ def test_button_is_on_the_corridor_wall_next_to_the_door(scene):
         sides.add(np.sign(offset))
     assert sides == {1.0, -1.0}
     env.close()
-
-
 
 
 def test_driving_into_the_locked_door_terminates_on_collision(joint_env):

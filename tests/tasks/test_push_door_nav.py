@@ -36,8 +36,6 @@ def face_door(env, distance: float, along: float = 0.0) -> None:
     env.task.after_reset()
 
 
-
-
 @pytest.mark.parametrize("scene", ["office_A", "office_B"])
 def test_reset_closes_the_door_and_samples_start_and_goal_in_their_regions(scene):
     env = RelmogenEnv(task="PushDoorNav", control="joint", scene=scene, image_size=64)
@@ -56,8 +54,6 @@ def test_reset_closes_the_door_and_samples_start_and_goal_in_their_regions(scene
         sides.add(task.door.hinge_side)
     assert sides == {1, -1}
     env.close()
-
-
 
 
 def test_driving_into_the_closed_door_terminates_on_collision(joint_env):

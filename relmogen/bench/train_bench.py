@@ -1,0 +1,91 @@
+"""``relmogen bench train``: gradient updates per second and environment steps per second.
+
+For each algorithm and preset: the model is built exactly as ``relmogen train`` builds it,
+its replay buffer is filled with real transitions (a few collected ones, repeated up to one
+batch), then ``model.train`` is timed for ``updates`` gradient steps. Environment steps per
+second are measured on one environment of the preset's image size with random actions (a
+preset's ``n_envs`` workers run these in parallel). For SGP-R the same update is also timed
+with SB3's stock SAC (separate encoders for actor, critic and target), which is the cost our
+shared encoder avoids.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from stable_baselines3 import SAC
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from relmogen.agents.networks import SGPREncoder
+from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.experiments.config import resolve_config
+from relmogen.experiments.train import build_model, env_kwargs
+
+COLLECTED = 16  # real transitions per benchmark; repeated to fill one batch
+
+
+def _vec_env(config) -> DummyVecEnv:
+    kwargs = env_kwargs(config, arm_collision=config.env.arm_collision_train)
+    return DummyVecEnv([lambda: RelmogenEnv(**kwargs)])
+
+
+def _fill_buffer(model, batch_size: int) -> float:
+    """Collect transitions with random actions; returns env steps per second."""
+    env = model.get_env()  # SB3's wrapped env (images transposed as the model expects)
+    obs = env.reset()
+    transitions, start = [], time.perf_counter()
+    for _ in range(COLLECTED):
+        action = np.array([env.action_space.sample()])
+        next_obs, reward, done, infos = env.step(action)
+        transitions.append((obs, next_obs, action, reward, done, infos))
+        obs = next_obs
+    steps_per_second = COLLECTED / (time.perf_counter() - start)
+    for index in range(max(batch_size, COLLECTED)):
+        model.replay_buffer.add(*transitions[index % COLLECTED])
+    return steps_per_second
+
+
+def _updates_per_second(model, updates: int, batch_size: int) -> float:
+    model.train(gradient_steps=1, batch_size=batch_size)  # warm-up (allocations, first kernels)
+    start = time.perf_counter()
+    model.train(gradient_steps=updates, batch_size=batch_size)
+    return updates / (time.perf_counter() - start)
+
+
+def _stock_sac(config, env):
+    params = config.algo_params
+    return SAC("MultiInputPolicy", env, buffer_size=params.buffer_size, batch_size=params.batch_size,
+               learning_starts=0, policy_kwargs=dict(features_extractor_class=SGPREncoder, normalize_images=False,
+                                                     net_arch=params.net_arch), device="cpu", seed=0)
+
+
+def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0) -> dict:
+    config = resolve_config(task, algo, seed=seed, preset=preset)
+    env = _vec_env(config)
+    model = build_model(config, env)
+    model._setup_learn(total_timesteps=1)  # creates the logger that train() records into
+    batch = config.algo_params.batch_size
+    env_sps = _fill_buffer(model, batch)
+    result = {"task": task, "algo": algo, "preset": preset, "image_size": config.env.image_size,
+              "batch_size": batch, "env_steps_per_s": round(env_sps, 3),
+              "updates_per_s": round(_updates_per_second(model, updates, batch), 3)}
+    if algo == "relmogen-r":
+        stock = _stock_sac(config, env)
+        stock._setup_learn(total_timesteps=1)
+        _fill_buffer(stock, batch)
+        result["stock_sb3_sac_updates_per_s"] = round(_updates_per_second(stock, updates, batch), 3)
+        result["shared_encoder_speedup"] = round(result["updates_per_s"] / result["stock_sb3_sac_updates_per_s"], 3)
+    env.close()
+    return result
+
+
+def bench_train(task: str = "PushDoorNav", presets: tuple[str, ...] = ("cpu", "paper"), updates: int = 10,
+                advance=None) -> dict:
+    runs = []
+    for preset in presets:
+        for algo in ("relmogen-r", "sac"):
+            runs.append(bench_one(task, algo, preset, updates))
+            if advance is not None:
+                advance()
+    return {"task": task, "updates_timed": updates, "runs": runs}
