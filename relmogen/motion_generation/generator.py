@@ -20,6 +20,7 @@ import pybullet as p
 from relmogen.motion_generation.arm import ArmConfig, ArmMotion
 from relmogen.motion_generation.base_planner import make_base_planner, plan_base
 from relmogen.motion_generation.planners import BACKENDS
+from relmogen.simulation.frames import to_local
 from relmogen.simulation.occupancy import LocalMap, build_local_map
 
 BASE_SPEED = 0.5  # m/s while executing a base path (Fetch tops out at 1.0 m/s)
@@ -108,18 +109,12 @@ class MotionGenerator:
         env = self.env
         lidar_position, _ = env.robot.lidar_pose()
         pose = env.robot.base_pose()
-        lidar_xy = self._robot_frame_xy(np.asarray(lidar_position)[:2], pose)
+        lidar_xy = tuple(to_local(np.asarray(lidar_position)[:2], pose))
         return build_local_map(
             env.scan() if ranges is None else ranges, env.lidar.angles, lidar_xy, env.lidar.max_range,
             tuple(pose), env.robot.spec.base_radius, self.config.map_size_m,
             resolution or self.config.map_resolution,
         )
-
-    @staticmethod
-    def _robot_frame_xy(xy: np.ndarray, pose) -> tuple[float, float]:
-        x, y, yaw = pose
-        dx, dy = xy[0] - x, xy[1] - y
-        return (np.cos(yaw) * dx + np.sin(yaw) * dy, -np.sin(yaw) * dx + np.cos(yaw) * dy)
 
     def move_base(self, goal_robot_frame: np.ndarray, rng: np.random.Generator, tick: Tick) -> SubgoalResult:
         planner = self.config.base_planner

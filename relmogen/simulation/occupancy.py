@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from relmogen.simulation.frames import to_local, to_world
+
 FREE = np.uint8(0)
 UNKNOWN = np.uint8(128)
 OCCUPIED = np.uint8(255)
@@ -50,16 +52,10 @@ class LocalMap:
         return np.all((cells >= 0) & (cells < self.size), axis=-1)
 
     def world_to_robot(self, xy_world: np.ndarray) -> np.ndarray:
-        x0, y0, yaw = self.robot_pose
-        d = np.asarray(xy_world, dtype=np.float64) - (x0, y0)
-        c, s = np.cos(yaw), np.sin(yaw)
-        return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
+        return to_local(xy_world, self.robot_pose)
 
     def robot_to_world(self, xy_robot: np.ndarray) -> np.ndarray:
-        x0, y0, yaw = self.robot_pose
-        p = np.asarray(xy_robot, dtype=np.float64)
-        c, s = np.cos(yaw), np.sin(yaw)
-        return np.stack([x0 + c * p[..., 0] - s * p[..., 1], y0 + s * p[..., 0] + c * p[..., 1]], axis=-1)
+        return to_world(xy_robot, self.robot_pose)
 
 
 def build_local_map(

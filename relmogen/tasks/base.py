@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from relmogen.simulation.frames import to_local
 from relmogen.tasks.terms import RewardTerm
 
 if TYPE_CHECKING:
@@ -102,12 +103,9 @@ class Task:
 
     def to_robot_frame(self, points: np.ndarray) -> np.ndarray:
         """World points (..., 2 or 3) -> the robot base frame (z measured from the floor)."""
-        x, y, yaw = self.ctx.robot.base_pose()
         pts = np.asarray(points, dtype=np.float64)
-        c, s = np.cos(yaw), np.sin(yaw)
-        dx, dy = pts[..., 0] - x, pts[..., 1] - y
-        planar = [c * dx + s * dy, -s * dx + c * dy]
-        return np.stack(planar + ([pts[..., 2]] if pts.shape[-1] == 3 else []), axis=-1)
+        planar = to_local(pts, self.ctx.robot.base_pose())
+        return np.concatenate([planar, pts[..., 2:3]], axis=-1) if pts.shape[-1] == 3 else planar
 
 
 TASKS: dict[str, type[Task]] = {}

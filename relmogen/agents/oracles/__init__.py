@@ -3,7 +3,13 @@
 import importlib
 import pkgutil
 
-from relmogen.agents.oracles.base import ORACLES, Oracle, RandomSubgoals, make_policy, register_oracle
+from relmogen.agents.oracles.base import (
+    ORACLES,
+    Oracle,
+    RandomSubgoals,
+    make_policy,
+    register_oracle,
+)
 
 for _module in pkgutil.iter_modules(__path__):
     if _module.name != "base":

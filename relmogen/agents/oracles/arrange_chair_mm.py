@@ -14,7 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from relmogen.agents.oracles.base import Oracle, arm_action, base_action, register_oracle, wrap
+from relmogen.agents.oracles.base import (
+    Oracle,
+    arm_action,
+    base_action,
+    register_oracle,
+    wrap,
+)
 from relmogen.scenes.geometry import Table
 
 STANDOFF = 0.8  # robot centre to the backrest's rear face, metres

@@ -20,7 +20,13 @@ import math
 
 import numpy as np
 
-from relmogen.agents.oracles.base import Oracle, arm_action, base_action, register_oracle, wrap
+from relmogen.agents.oracles.base import (
+    Oracle,
+    arm_action,
+    base_action,
+    register_oracle,
+    wrap,
+)
 from relmogen.scenes.objects.cabinet import DOOR_Z, DRAWER_Z, FRONT_THICKNESS, Cabinet
 from relmogen.tasks.arrange_kitchen_mm import ArrangeKitchenMM
 

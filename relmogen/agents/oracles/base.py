@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from relmogen.simulation.frames import to_local
+
 if TYPE_CHECKING:
     from relmogen.envs.relmogen_env import RelmogenEnv
 
@@ -43,9 +45,10 @@ def base_action_robot_frame(x: float, y: float, yaw_change: float) -> np.ndarray
 
 def base_action(env: RelmogenEnv, target_xy: np.ndarray, target_yaw: float | None = None) -> np.ndarray:
     """Drive toward a world xy (and final world yaw; default: face the direction of travel)."""
-    x, y, yaw = env.robot.base_pose()
+    pose = env.robot.base_pose()
+    x, y, yaw = pose
     dx, dy = np.asarray(target_xy, dtype=np.float64) - (x, y)
-    local = np.array([np.cos(yaw) * dx + np.sin(yaw) * dy, -np.sin(yaw) * dx + np.cos(yaw) * dy])
+    local = to_local(target_xy, pose)
     if target_yaw is None:
         target_yaw = float(np.arctan2(dy, dx)) if np.hypot(dx, dy) > 1e-6 else yaw
     return base_action_robot_frame(local[0], local[1], wrap(target_yaw - yaw))

@@ -13,7 +13,13 @@ import math
 import numpy as np
 
 from relmogen.agents.oracles.base import arm_action, base_action, register_oracle
-from relmogen.agents.oracles.push_door_nav import CLOSE_ENOUGH_XY, ARRIVED_XY, DoorOracle, at_pose, drive_to
+from relmogen.agents.oracles.push_door_nav import (
+    ARRIVED_XY,
+    CLOSE_ENOUGH_XY,
+    DoorOracle,
+    at_pose,
+    drive_to,
+)
 
 PRESS_LENGTH = 0.2
 STAND_OFF = (0.65, 0.55, 0.75)  # base centre to the wall, metres

@@ -11,8 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from relmogen.agents.oracles.base import Oracle, arm_action, base_action, register_oracle, wrap
+from relmogen.agents.oracles.base import (
+    Oracle,
+    arm_action,
+    base_action,
+    register_oracle,
+    wrap,
+)
 from relmogen.scenes.navigation import GeodesicField, TraversabilityMap
+from relmogen.simulation.frames import to_local
 from relmogen.tasks.interactive_obstacles_nav import PUSH_LENGTH
 
 PUSH_HEIGHTS = (0.65, 0.6, 0.75)  # m on the box face (tipping starts above ~1.1 m); cycled on failures
@@ -43,9 +50,7 @@ def box_face(xy: np.ndarray, yaw: float, half: float, toward: np.ndarray) -> tup
 
 
 def distance_to_box(points: np.ndarray, xy: np.ndarray, yaw: float, half: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    d = np.asarray(points) - xy
-    local = np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
+    local = to_local(points, (*np.asarray(xy)[:2], yaw))
     return np.linalg.norm(np.maximum(np.abs(local) - half, 0.0), axis=-1)
 
 

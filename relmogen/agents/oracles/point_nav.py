@@ -11,7 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from relmogen.agents.oracles.base import Oracle, base_action, base_action_robot_frame, register_oracle, wrap
+from relmogen.agents.oracles.base import (
+    Oracle,
+    base_action,
+    base_action_robot_frame,
+    register_oracle,
+    wrap,
+)
 from relmogen.motion_generation.base_planner import FootprintChecker
 
 LOOKAHEAD = 10  # waypoints, 0.2 m apart: 2 m, one base subgoal

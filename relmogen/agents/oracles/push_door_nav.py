@@ -15,7 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from relmogen.agents.oracles.base import Oracle, arm_action, base_action, register_oracle, wrap
+from relmogen.agents.oracles.base import (
+    Oracle,
+    arm_action,
+    base_action,
+    register_oracle,
+    wrap,
+)
 from relmogen.agents.oracles.point_nav import LOOKAHEADS
 from relmogen.scenes.navigation import GeodesicField
 

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from relmogen.simulation.frames import to_local
+
 RGBA = tuple[float, float, float, float]
 OBSTACLE_SIZE = (0.7, 0.7, 1.2)  # x, y, z metres
 RED_RGBA: RGBA = (0.85, 0.08, 0.08, 1.0)
@@ -75,7 +77,6 @@ class BoxObstacle:
 
 def footprint_mask(points: np.ndarray, center_xy, yaw: float, half_xy, margin: float = 0.0) -> np.ndarray:
     """Which of ``points`` (..., 2) lie inside a box footprint grown by ``margin``."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    d = np.asarray(points, dtype=np.float64) - np.asarray(center_xy)[:2]
-    local_x, local_y = c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]
+    local = to_local(points, (*np.asarray(center_xy)[:2], yaw))
+    local_x, local_y = local[..., 0], local[..., 1]
     return (np.abs(local_x) <= half_xy[0] + margin) & (np.abs(local_y) <= half_xy[1] + margin)
