@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from relmogen.simulation.frames import heading_axes
+
 RGBA = tuple[float, float, float, float]
 
 
@@ -93,12 +95,12 @@ class Doorway:
 
     @property
     def normal(self) -> np.ndarray:
-        return np.array([math.cos(self.yaw), math.sin(self.yaw)])
+        return heading_axes(self.yaw)[0]
 
     @property
     def along(self) -> np.ndarray:
         """Unit vector along the wall (normal rotated by +90 deg)."""
-        return np.array([-math.sin(self.yaw), math.cos(self.yaw)])
+        return heading_axes(self.yaw)[1]
 
     def joins(self, a: str, b: str) -> bool:
         return set(self.regions) == {a, b}

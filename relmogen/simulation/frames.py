@@ -21,3 +21,9 @@ def to_world(points_xy: np.ndarray, pose: Sequence[float]) -> np.ndarray:
     p = np.asarray(points_xy, dtype=np.float64)
     c, s = np.cos(yaw), np.sin(yaw)
     return np.stack([x + c * p[..., 0] - s * p[..., 1], y + s * p[..., 0] + c * p[..., 1]], axis=-1)
+
+
+def heading_axes(yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vector along ``yaw`` and the one 90 deg to its left."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([c, s]), np.array([-s, c])

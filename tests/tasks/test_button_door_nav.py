@@ -6,6 +6,7 @@ import os
 import numpy as np
 import pybullet as p
 import pytest
+from door_helpers import drive_forward_until_done
 
 from relmogen.agents.oracles.base import arm_action, base_action
 from relmogen.agents.oracles.push_door_nav import plan_stroke
@@ -75,12 +76,7 @@ def test_button_is_on_the_corridor_wall_next_to_the_door(scene):
 def test_driving_into_the_locked_door_terminates_on_collision(joint_env):
     joint_env.reset(seed=0)
     face_door(joint_env, 0.6)
-    forward = np.zeros(joint_env.action_space.shape, dtype=np.float32)
-    forward[:2] = 1.0
-    for _ in range(30):
-        _, _, terminated, truncated, info = joint_env.step(forward)
-        if terminated or truncated:
-            break
+    terminated, info = drive_forward_until_done(joint_env)
     assert terminated and info["termination"] == "collision"
     assert abs(joint_env.task.door.angle) < 0.01  # the lock motor holds against the base
 

@@ -6,6 +6,7 @@ import os
 import numpy as np
 import pybullet as p
 import pytest
+from door_helpers import drive_forward_until_done
 
 from relmogen.agents.oracles.base import arm_action, base_action
 from relmogen.agents.oracles.push_door_nav import plan_stroke
@@ -59,12 +60,7 @@ def test_reset_closes_the_door_and_samples_start_and_goal_in_their_regions(scene
 def test_driving_into_the_closed_door_terminates_on_collision(joint_env):
     joint_env.reset(seed=0)
     face_door(joint_env, 0.6)
-    forward = np.zeros(joint_env.action_space.shape, dtype=np.float32)
-    forward[:2] = 1.0
-    for _ in range(30):
-        _, _, terminated, truncated, info = joint_env.step(forward)
-        if terminated or truncated:
-            break
+    terminated, info = drive_forward_until_done(joint_env)
     assert terminated and info["termination"] == "collision"
     # The episode ends at the end of the 0.1 s step in which the base first touched the door:
     # at full speed (0.5 m/s) the base dents it by up to 5 cm, a few degrees; open is 60 deg.

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from relmogen.simulation.frames import heading_axes
+
 WIDTH, DEPTH, HEIGHT = 0.5, 0.5, 0.85
 FRONT_THICKNESS = 0.02
 FRONT_GAP = 0.01  # between neighbouring fronts and around the carcass edges
@@ -180,12 +182,12 @@ class Cabinet:
     @property
     def normal(self) -> np.ndarray:
         """Unit vector out of the front, into the room."""
-        return np.array([math.cos(self.yaw), math.sin(self.yaw)])
+        return heading_axes(self.yaw)[0]
 
     @property
     def along(self) -> np.ndarray:
         """Unit vector along the front, from the door hinge towards the door's free edge."""
-        return np.array([-math.sin(self.yaw), math.cos(self.yaw)])
+        return heading_axes(self.yaw)[1]
 
     def to_world(self, x: float, y: float) -> np.ndarray:
         return self.front_xy + x * self.normal + y * self.along
