@@ -11,7 +11,9 @@
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--episodes N] [--base-planner X] [--arm-planner Y]
                   [--arm-collision on|off] [--scene A|B] [--json]
+    relmogen export RUN_DIR_OR_CHECKPOINT --out DIR
     relmogen report RUN_DIRS... --out DIR
+    relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S]
 """
 
 from __future__ import annotations
@@ -45,7 +47,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from relmogen.experiments.demo import run_demo
 
     metrics = run_demo(episodes=args.episodes, seed=args.seed, out_dir=Path(args.out), quiet=args.json)
-    _print_metrics(metrics, args.json, "PointNav demo (waypoint follower on joint velocities)")
+    _print_metrics(metrics, args.json, f"{metrics['task']} demo (shipped {metrics['policy']} policy)")
     return 0
 
 
@@ -64,7 +66,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.train import resume, train
 
     if args.resume:
-        run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes)
+        run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours)
     else:
         if not args.task or not args.algo:
             raise ValueError("--task and --algo are required unless --resume is given")
@@ -81,6 +83,36 @@ def cmd_eval(args: argparse.Namespace) -> int:
     result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
                            args.arm_collision == "on", args.scene, args.device, quiet=args.json)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from relmogen.agents.shipped import export_actor
+    from relmogen.experiments.evaluate import load_policy
+
+    model, config, run_dir = load_policy(Path(args.run), device="cpu")
+    state_file = latest_checkpoint_state(Path(args.run), run_dir)
+    provenance = {"run": run_dir.name, "command": " ".join(sys.argv), **state_file}
+    out = export_actor(model, config, Path(args.out), provenance)
+    print(f"wrote {out}")
+    return 0
+
+
+def latest_checkpoint_state(path: Path, run_dir: Path) -> dict:
+    from relmogen.experiments.train import latest_checkpoint
+
+    checkpoint = path if (path / "model.zip").is_file() else latest_checkpoint(run_dir)
+    state = json.loads((checkpoint / "state.json").read_text())
+    return {"checkpoint": checkpoint.name, **state}
+
+
+def cmd_viz_qmap(args: argparse.Namespace) -> int:
+    from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
+
+    paths = q_map_figures_for_checkpoint(Path(args.checkpoint), Path(args.out), args.task, args.states, args.seed,
+                                         args.stride, args.device)
+    for path in paths:
+        print(path)
     return 0
 
 
@@ -181,6 +213,23 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--device", default="auto")
     evaluate.add_argument("--json", action="store_true")
     evaluate.set_defaults(func=cmd_eval)
+
+    export = sub.add_parser("export", help="write a run's trained SGP-R/SAC actor as a small shipped policy")
+    export.add_argument("run", metavar="RUN_DIR_OR_CHECKPOINT")
+    export.add_argument("--out", required=True, help="folder to write config.yaml, actor.pt, provenance.json")
+    export.set_defaults(func=cmd_export)
+
+    viz = sub.add_parser("viz", help="figures of trained policies")
+    viz_sub = viz.add_subparsers(dest="figure", required=True)
+    qmap = viz_sub.add_parser("qmap", help="SGP-D Q maps over the RGB frame and the local map (paper Fig. A.2)")
+    qmap.add_argument("checkpoint", metavar="RUN_DIR_OR_CHECKPOINT")
+    qmap.add_argument("--task", default=None, help="task to show (default: the one it was trained on)")
+    qmap.add_argument("--out", default="out/qmap", help="folder for the PNGs (default out/qmap)")
+    qmap.add_argument("--states", type=_positive_int, default=4, help="figures to draw (default 4)")
+    qmap.add_argument("--stride", type=_positive_int, default=3, help="draw every N-th step (default 3)")
+    qmap.add_argument("--seed", type=int, default=0, help="first evaluation episode seed")
+    qmap.add_argument("--device", default="auto")
+    qmap.set_defaults(func=cmd_viz_qmap)
 
     report = sub.add_parser("report", help="table (mean/std/max over seeds) and curves of runs")
     report.add_argument("runs", nargs="+", metavar="RUN_DIR")

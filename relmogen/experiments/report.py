@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import json
+import warnings
 from collections import defaultdict
 from pathlib import Path
 
@@ -52,8 +53,14 @@ def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
 
 
 def _state(run_dir: Path) -> dict:
+    """Budget spent: ``done.json`` of a finished run, else its latest checkpoint's state."""
+    from relmogen.experiments.train import latest_checkpoint
+
     done = run_dir / "done.json"
-    return json.loads(done.read_text()) if done.is_file() else {}
+    if done.is_file():
+        return json.loads(done.read_text())
+    checkpoint = latest_checkpoint(run_dir)
+    return json.loads((checkpoint / "state.json").read_text()) if checkpoint is not None else {}
 
 
 def read_curve(path: Path) -> dict[str, np.ndarray]:
@@ -65,8 +72,8 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
 
 
 def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
-    lines = ["| task | algorithm | seeds | " + " | ".join(TABLE_METRICS) + " | episodes | wall-clock h |",
-             "|---|---|---|" + "---|" * len(TABLE_METRICS) + "---|---|"]
+    lines = ["| task | algorithm | seeds | " + " | ".join(TABLE_METRICS) + " | episodes | wall-clock h | CPU h |",
+             "|---|---|---|" + "---|" * len(TABLE_METRICS) + "---|---|---|"]
     for (task, algo), runs in sorted(groups.items()):
         evaluated = [r for r in runs if r["eval"] is not None]
         cells = []
@@ -78,10 +85,13 @@ def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
             cells.append(f"{s['mean']:.2f} / {s['std']:.2f} / {s['max']:.2f}")
         episodes = [r["state"].get("episodes", len(r["curve"]["episode"])) for r in runs]
         hours = [r["state"].get("wall_time_s", 0.0) / 3600 for r in runs]
+        cpu = [r["state"]["cpu_time_s"] / 3600 for r in runs if "cpu_time_s" in r["state"]]
+        cpu_cell = f"{np.mean(cpu):.2f}" if len(cpu) == len(runs) else "-"
         lines.append(f"| {task} | {algo} | {len(runs)} | " + " | ".join(cells)
-                     + f" | {int(np.mean(episodes))} | {np.mean(hours):.2f} |")
+                     + f" | {int(np.mean(episodes))} | {np.mean(hours):.2f} | {cpu_cell} |")
     lines.append("")
-    lines.append("Cells are mean / std / max over seeds of the final evaluation (deterministic policy).")
+    lines.append("Cells are mean / std / max over seeds of the final evaluation (deterministic policy). "
+                 "episodes, wall-clock h and CPU h (trainer plus environment workers) are means over seeds.")
     return "\n".join(lines)
 
 
@@ -94,23 +104,39 @@ def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray) -> np.ndarray:
     return np.interp(grid, episodes[kernel - 1:], smooth, left=np.nan, right=np.nan)
 
 
+PANELS = (("success", "episode", "success rate", "environment episodes"),
+          ("return", "episode", "episode return", "environment episodes"),
+          ("return", "hours", "episode return", "wall-clock hours"))
+
+
+def _mean_and_std(runs: list[dict], key: str, axis_key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Seed mean and std of the smoothed ``key`` on a common grid of episodes or hours."""
+    curves = [dict(r["curve"], hours=r["curve"].get("wall_time_s", np.zeros(0)) / 3600) for r in runs]
+    last = max(c[axis_key].max(initial=0) for c in curves)
+    start = 1.0 if axis_key == "episode" else 0.0
+    grid = np.linspace(start, max(last, start + 1e-6), 200)
+    values = np.array([_smoothed_on_grid(dict(c, episode=c[axis_key]), key, grid) for c in curves])
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # grid points no seed reached yet
+        return grid, np.nanmean(values, axis=0), np.nanstd(values, axis=0)
+
+
 def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
+    """Per task: success rate and return against episodes (the paper's x-axis) and return
+    against wall-clock hours (the equal-budget comparison); mean and std over seeds."""
     tasks = sorted({task for task, _ in groups})
-    fig, axes = plt.subplots(2, len(tasks), figsize=(5.5 * len(tasks), 7), squeeze=False)
+    fig, axes = plt.subplots(len(PANELS), len(tasks), figsize=(5.5 * len(tasks), 10), squeeze=False)
     for column, task in enumerate(tasks):
         for (group_task, algo), runs in sorted(groups.items()):
             if group_task != task:
                 continue
-            last = max(r["curve"]["episode"].max(initial=0) for r in runs)
-            grid = np.linspace(1, max(last, 1), 200)
-            for row, key in enumerate(("success", "return")):
-                curves = np.array([_smoothed_on_grid(r["curve"], key, grid) for r in runs])
-                mean, std = np.nanmean(curves, axis=0), np.nanstd(curves, axis=0)
+            for row, (key, axis_key, ylabel, xlabel) in enumerate(PANELS):
+                grid, mean, std = _mean_and_std(runs, key, axis_key)
                 ax = axes[row, column]
                 ax.plot(grid, mean, label=f"{algo} ({len(runs)} seeds)")
                 ax.fill_between(grid, mean - std, mean + std, alpha=0.25)
-                ax.set_xlabel("environment episodes")
-                ax.set_ylabel("success rate" if key == "success" else "episode return")
+                ax.set_xlabel(xlabel)
+                ax.set_ylabel(ylabel)
         axes[0, column].set_title(task)
         axes[0, column].legend()
     fig.tight_layout()

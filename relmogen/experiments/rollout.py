@@ -63,12 +63,16 @@ def _frame_recorder(env: RelmogenEnv, frames: list) -> Callable[[], None]:
 
 
 def run_episodes(env: RelmogenEnv, act: Policy, episodes: int, seed: int = 0, quiet: bool = False,
-                 on_reset: Callable[[], None] | None = None, description: str = "episodes") -> list[EpisodeRecord]:
+                 on_reset: Callable[[], None] | None = None, description: str = "episodes",
+                 record_first: bool = False) -> list[EpisodeRecord]:
+    """``episodes`` episodes with seeds ``seed, seed + 1, ...``; ``record_first`` keeps the
+    video frames of the first one."""
     records = []
     with Progress(disable=quiet, transient=True) as progress:
         bar = progress.add_task(description, total=episodes)
         for episode in range(episodes):
-            records.append(run_episode(env, act, seed + episode, on_reset=on_reset))
+            record = record_first and episode == 0
+            records.append(run_episode(env, act, seed + episode, record_frames=record, on_reset=on_reset))
             progress.advance(bar)
     return records
 

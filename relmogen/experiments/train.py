@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import psutil
 import torch as th
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from stable_baselines3.common.callbacks import BaseCallback
@@ -131,6 +132,19 @@ def _publish(root: Path, name: str) -> None:
     os.replace(tmp, root / LATEST)
 
 
+def process_tree_cpu_seconds() -> float:
+    """User + system CPU seconds of this process and its live children since they started."""
+    me = psutil.Process()
+    total = 0.0
+    for process in [me, *me.children(recursive=True)]:
+        try:
+            times = process.cpu_times()
+        except psutil.NoSuchProcess:
+            continue
+        total += times.user + times.system
+    return total
+
+
 # --------------------------------------------------------------------------- callback
 class TrainingMonitor(BaseCallback):
     """Counts episodes; logs, checkpoints, evaluates and stops on the episode/time budget."""
@@ -142,6 +156,7 @@ class TrainingMonitor(BaseCallback):
         self.successes: list[float] = []
         self.session_start = time.time()
         self.wall_before_session = state["wall_time_s"]
+        self.cpu_before_session = state.get("cpu_time_s", 0.0)
         self.steps_at_start = state["timesteps"]
         self.csv_file = open(self.run_dir / "episodes.csv", "a", newline="")
         self.csv = csv.DictWriter(self.csv_file, fieldnames=EPISODE_FIELDS, extrasaction="ignore")
@@ -154,6 +169,12 @@ class TrainingMonitor(BaseCallback):
     @property
     def wall_time(self) -> float:
         return self.wall_before_session + (time.time() - self.session_start)
+
+    @property
+    def cpu_time(self) -> float:
+        """CPU seconds of this run so far (trainer plus its environment workers): the fair
+        budget measure when several runs share a machine."""
+        return self.cpu_before_session + process_tree_cpu_seconds()
 
     def _on_training_start(self) -> None:
         self.progress.start()
@@ -214,6 +235,7 @@ class TrainingMonitor(BaseCallback):
 
     def checkpoint(self) -> None:
         self.state["wall_time_s"] = self.wall_time
+        self.state["cpu_time_s"] = self.cpu_time
         self.state["timesteps"] = self.model.num_timesteps
         write_checkpoint(self.run_dir, self.model, dict(self.state))
 
@@ -239,12 +261,15 @@ def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False) ->
     return _learn(run_dir, config, model, state, quiet)
 
 
-def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None) -> Path:
-    """Continue a run from its latest checkpoint (optionally with a new episode budget)."""
+def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
+           max_hours: float | None = None) -> Path:
+    """Continue a run from its latest checkpoint, optionally with a new episode budget or a new
+    total wall-clock budget (hours counted from the run's start, across resumes)."""
     run_dir = Path(run_dir)
     config = read_config(run_dir / "config.yaml")
-    if episodes is not None:
-        config = config.model_copy(update={"episodes": episodes})
+    updates = {key: value for key, value in (("episodes", episodes), ("max_hours", max_hours)) if value is not None}
+    if updates:
+        config = config.model_copy(update=updates)
         save_config(config, run_dir / "config.yaml")
     checkpoint = latest_checkpoint(run_dir)
     env = make_training_env(config)

@@ -21,7 +21,8 @@ def fake_run(root, algo, seed, success_rate, spl):
         writer.writerow(["episode", "timesteps", "wall_time_s", "return", "length", "success"])
         for episode in range(1, 101):
             writer.writerow([episode, episode * 25, episode * 10.0, episode / 10, 25, float(episode > 50)])
-    (run / "done.json").write_text(json.dumps({"episodes": 100, "wall_time_s": 3600.0}))
+    (run / "done.json").write_text(json.dumps({"episodes": 100, "wall_time_s": 3600.0,
+                                               "cpu_time_s": 900.0 * (seed + 1)}))
     return run
 
 
@@ -34,7 +35,7 @@ def test_table_has_mean_std_max_over_seeds(tmp_path):
     mean, std = np.mean([0.9, 1.0, 0.8]), np.std([0.9, 1.0, 0.8])
     assert f"{mean:.2f} / {std:.2f} / 1.00" in row
     assert f"{np.mean([0.5, 0.7, 0.6]):.2f} / {np.std([0.5, 0.7, 0.6]):.2f} / 0.70" in row
-    assert "| 3 |" in row and "| 100 | 1.00 |" in row
+    assert "| 3 |" in row and "| 100 | 1.00 | 0.50 |" in row  # CPU h: mean of 0.25, 0.5, 0.75
     assert "0.00 / 0.00 / 0.00" in next(line for line in table.splitlines() if "| sac |" in line)
     assert (tmp_path / "report" / "curves.png").stat().st_size > 10_000
     assert result["table"].endswith("table.md")

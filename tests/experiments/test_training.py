@@ -9,11 +9,15 @@ import sys
 import time
 from pathlib import Path
 
+import imageio.v2 as imageio
+import numpy as np
 import pytest
 
+from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.experiments.config import resolve_config
-from relmogen.experiments.evaluate import evaluate_path
+from relmogen.experiments.evaluate import evaluate_path, load_policy
 from relmogen.experiments.train import latest_checkpoint, resume, train
+from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 
 
 def episodes_in(run_dir: Path) -> list[int]:
@@ -36,6 +40,25 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
     assert list((run_dir / "eval").glob("*.json"))
+    if algo == "relmogen-d":
+        figures = q_map_figures_for_checkpoint(run_dir, tmp_path / "qmap", states=1)
+        assert len(figures) == 1 and imageio.imread(figures[0]).shape[0] > 100
+    else:
+        assert_exported_actor_acts_like_the_model(run_dir, tmp_path / "shipped")
+
+
+def assert_exported_actor_acts_like_the_model(run_dir: Path, out: Path):
+    model, config, _ = load_policy(run_dir, device="cpu")
+    export_actor(model, config, out, {"run": run_dir.name})
+    env, shipped = open_shipped(out)
+    try:
+        obs, _ = env.reset(seed=3)
+        expected = model.predict(obs, deterministic=True)[0]
+        # float16 storage: the same action up to half-precision rounding of the weights
+        assert np.allclose(shipped.act(obs), expected, atol=2e-2)
+        assert shipped.provenance["run"] == run_dir.name and shipped.config == config
+    finally:
+        env.close()
 
 
 def test_resume_after_kill_9_loses_at_most_one_checkpoint_interval(tmp_path):

@@ -1,0 +1,180 @@
+"""``relmogen viz qmap``: what an SGP-D policy values, pixel by pixel (like the paper's Fig. A.2).
+
+For a few states of greedy evaluation episodes, one PNG with two panels:
+
+* the robot's RGB frame with the arm Q map (max over the K push directions, min-max
+  normalised, upsampled from Q x Q to the image) overlaid;
+* the local occupancy map (robot at the centre, forward up, left to the left; white free,
+  grey unknown, black occupied; the goal/waypoint channel in green when the task has one)
+  with the base Q map (max over the L yaw bins, only on cells the policy may choose, i.e.
+  free for the base footprint) overlaid.
+
+The chosen action (masked greedy, as at evaluation) is marked with a star and an arrow: the
+push direction (robot frame, drawn as seen from above) for arm actions, the final heading for
+base actions. Titles give each part's best Q value, which decides between base and arm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch as th  # noqa: E402
+
+from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
+from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS  # noqa: E402
+
+OVERLAY_ALPHA = 0.55
+ARROW_CELLS = 2.5  # arrow length in Q-map cells
+
+
+@dataclass
+class QMapState:
+    """Everything one figure shows: observation, Q maps, the base mask and the greedy choice."""
+
+    rgb: np.ndarray  # (S, S, 3) uint8
+    local_map: np.ndarray  # (S, S, C) uint8, row = robot x (forward), column = robot y (left)
+    q_maps: np.ndarray  # (L + K, Q, Q)
+    base_mask: np.ndarray  # (Q, Q) bool
+    parts: tuple[str, ...]
+    choice: tuple[str, int, int, int]  # (part, bin, i, j)
+    step: int
+
+
+def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
+    control = env.unwrapped.control
+    base_mask = control.extra_info()["base_mask"]
+    tensor_obs, _ = model.policy.obs_to_tensor(obs)
+    with th.no_grad():
+        maps = model.policy.q_net.net.q_maps(tensor_obs)[0].cpu().numpy()
+    action = int(model.predict(obs, deterministic=True, base_mask=base_mask)[0])
+    return QMapState(obs["rgb"], obs["local_map"], maps, base_mask, tuple(model.subgoal_parts),
+                     control.decode(action), step)
+
+
+def _normalised(values: np.ndarray) -> np.ndarray:
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return values
+    low, high = float(finite.min()), float(finite.max())
+    return (values - low) / (high - low) if high > low else np.where(np.isfinite(values), 1.0, np.nan)
+
+
+def _to_display(grid: np.ndarray) -> np.ndarray:
+    """Row = forward, column = left -> an image with forward up and left on the left."""
+    return grid[::-1, ::-1]
+
+
+def _arrow(axis, row: float, col: float, angle: float, length: float) -> None:
+    """Arrow at a display position for a robot-frame heading (forward up, left to the left)."""
+    axis.annotate("", xy=(col - length * np.sin(angle), row - length * np.cos(angle)), xytext=(col, row),
+                  arrowprops=dict(arrowstyle="-|>", color="white", lw=2.0))
+
+
+def _arm_panel(axis, state: QMapState) -> None:
+    size = state.rgb.shape[0]
+    axis.imshow(state.rgb)
+    arm = state.q_maps[YAW_BINS:].max(axis=0)
+    extent = (-0.5, size - 0.5, size - 0.5, -0.5)
+    if "arm" in state.parts:
+        axis.imshow(_normalised(arm), cmap="jet", alpha=OVERLAY_ALPHA, extent=extent, interpolation="nearest")
+        axis.set_title(f"arm Q (max over {PUSH_BINS} pushes), best {arm.max():.2f}", fontsize=9)
+    else:
+        axis.set_title("arm subgoals not used by this task", fontsize=9)
+    part, bin_, i, j = state.choice
+    if part == "arm":
+        row, col = Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2
+        axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
+        _arrow(axis, row, col, bin_ * 2 * np.pi / PUSH_BINS, ARROW_CELLS * Q_DOWNSAMPLE)
+    axis.set_axis_off()
+
+
+def _base_panel(axis, state: QMapState) -> None:
+    grid = state.local_map[..., 0].astype(float)
+    size, q = grid.shape[0], state.base_mask.shape[0]
+    axis.imshow(_to_display(grid), cmap="gray_r", vmin=0, vmax=255)
+    if state.local_map.shape[-1] > 1:
+        marks = np.ma.masked_equal(_to_display(state.local_map[..., 1].astype(float)), 0)
+        axis.imshow(marks, cmap="Greens", vmin=0, vmax=255, alpha=0.9)
+    extent = (-0.5, size - 0.5, size - 0.5, -0.5)
+    scale = size / q
+    if "base" in state.parts:
+        base = np.where(state.base_mask, state.q_maps[:YAW_BINS].max(axis=0), np.nan)
+        axis.imshow(_to_display(_normalised(base)), cmap="jet", alpha=OVERLAY_ALPHA, extent=extent,
+                    interpolation="nearest")
+        best = np.nanmax(base) if np.isfinite(base).any() else float("nan")
+        axis.set_title(f"base Q (max over {YAW_BINS} yaws, free cells), best {best:.2f}", fontsize=9)
+    else:
+        axis.set_title("base subgoals not used by this task", fontsize=9)
+    centre = size / 2 - 0.5
+    axis.plot(centre, centre, marker="o", markersize=7, color="orange", markeredgecolor="black")
+    part, bin_, i, j = state.choice
+    if part == "base":
+        row, col = (q - 1 - i + 0.5) * scale - 0.5, (q - 1 - j + 0.5) * scale - 0.5
+        axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
+        _arrow(axis, row, col, -np.pi + bin_ * 2 * np.pi / YAW_BINS, ARROW_CELLS * scale)
+    axis.set_axis_off()
+
+
+def draw_q_map_state(state: QMapState, path: Path, title: str) -> Path:
+    figure, axes = plt.subplots(1, 2, figsize=(9.0, 4.8))
+    _arm_panel(axes[0], state)
+    _base_panel(axes[1], state)
+    part, bin_, i, j = state.choice
+    figure.suptitle(f"{title} - step {state.step}: chose {part} (bin {bin_}, cell {i},{j})", fontsize=10)
+    figure.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path
+
+
+def q_map_figures(model, env: RelmogenEnv, out_dir: Path, states: int = 4, seed: int = 0,
+                  stride: int = 3, title: str = "") -> list[Path]:
+    """Run greedy episodes (seeds ``seed, seed + 1, ...``) and draw every ``stride``-th state
+    until ``states`` figures exist."""
+    if states < 1 or stride < 1:
+        raise ValueError(f"states and stride must be positive, got {states} and {stride}")
+    paths: list[Path] = []
+    episode = 0
+    while len(paths) < states:
+        obs, _ = env.reset(seed=seed + episode)
+        done, step = False, 0
+        while not done and len(paths) < states:
+            state = q_map_state(model, env, obs, step)
+            if step % stride == 0:
+                name = f"qmap_{env.unwrapped.task.name}_ep{episode}_step{step:02d}.png"
+                paths.append(draw_q_map_state(state, Path(out_dir) / name, title or env.unwrapped.task.name))
+            part, bin_, i, j = state.choice
+            obs, _, terminated, truncated, _ = env.step(env.unwrapped.control.encode(part, bin_, i, j))
+            done, step = terminated or truncated, step + 1
+        episode += 1
+    return paths
+
+
+def q_map_figures_for_checkpoint(path: Path, out_dir: Path, task: str | None = None, states: int = 4,
+                                 seed: int = 0, stride: int = 3, device: str = "auto") -> list[Path]:
+    """``relmogen viz qmap``: load a relmogen-d run or checkpoint and draw its Q maps on ``task``
+    (default: the task it was trained on), arm collision checking on as at evaluation."""
+    from relmogen.experiments.evaluate import load_policy
+    from relmogen.experiments.train import env_kwargs
+
+    model, config, run_dir = load_policy(Path(path), device)
+    if config.algo != "relmogen-d":
+        raise ValueError(f"Q maps exist only for relmogen-d policies; {run_dir} is {config.algo!r}")
+    if task is not None:
+        config = config.model_copy(update={"task": task})
+    env = RelmogenEnv(**env_kwargs(config, arm_collision=True))
+    try:
+        if min(env.observation_space["local_map"].shape) != min(model.observation_space["local_map"].shape):
+            raise ValueError(f"{config.task}'s local map has a different number of channels than the "
+                             f"task {run_dir.name} was trained on")
+        return q_map_figures(model, env, out_dir, states, seed, stride, title=f"{run_dir.name} on {config.task}")
+    finally:
+        env.close()

@@ -1,0 +1,32 @@
+"""``relmogen demo``: the shipped PushDoorNav policy runs without training and writes a GIF."""
+
+import json
+import subprocess
+import sys
+
+import imageio.v2 as imageio
+
+from relmogen.agents.shipped import POLICIES_DIR, shipped_policy_dir
+from relmogen.experiments.demo import DEMO_POLICY
+
+
+def test_demo_loads_the_shipped_policy_and_prints_one_json_object(tmp_path):
+    out = subprocess.run([sys.executable, "-m", "relmogen.cli", "demo", "--episodes", "1", "--json",
+                          "--out", str(tmp_path)], capture_output=True, text=True, check=True).stdout
+    metrics = json.loads(out.strip().splitlines()[-1])
+    assert metrics["task"] == "PushDoorNav" and metrics["policy"] == DEMO_POLICY
+    assert metrics["episodes"] == 1 and 0.0 <= metrics["success_rate"] <= 1.0
+    assert 1 <= metrics["mean_steps"] <= 25 and "subgoal_success_rate" in metrics
+    frames = imageio.mimread(metrics["gif"])
+    assert len(frames) > 2
+
+
+def test_shipped_policy_is_small_and_unknown_names_list_the_known_ones():
+    folder = shipped_policy_dir(DEMO_POLICY)
+    assert sum(f.stat().st_size for f in folder.iterdir()) < 5_000_000
+    try:
+        shipped_policy_dir("NoSuchPolicy")
+    except ValueError as error:
+        assert DEMO_POLICY in str(error) and str(POLICIES_DIR) in str(error)
+    else:
+        raise AssertionError("an unknown policy name must be refused")
