@@ -9,6 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import torch as th
+
 from relmogen.agents.dqn import env_policy
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import TrainConfig, read_config
@@ -48,6 +50,7 @@ def load_policy(path: Path, device: str = "auto"):
         if checkpoint is None:
             raise ValueError(f"{path} has no checkpoint (expected {path}/checkpoints/latest)")
     config = read_config(run_dir / "config.yaml")
+    th.set_num_threads(config.run.torch_threads)  # one thread per process unless the config says otherwise
     model = model_class(config).load(checkpoint / "model.zip", device=resolve_device(device))
     return model, config, run_dir
 

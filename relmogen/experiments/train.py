@@ -277,6 +277,7 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
         state, model = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, build_model(config, env)
     else:
         state = json.loads((checkpoint / "state.json").read_text())
+        th.set_num_threads(config.run.torch_threads)  # as build_model does: extra threads thrash a busy CPU
         model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device))
         model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
     _truncate_episode_log(run_dir / "episodes.csv", state["episodes"])

@@ -12,6 +12,7 @@ from pathlib import Path
 import imageio.v2 as imageio
 import numpy as np
 import pytest
+import torch as th
 
 from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.experiments.config import resolve_config
@@ -34,8 +35,11 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
     assert state["episodes"] == episodes and state["timesteps"] >= episodes
     assert (latest_checkpoint(run_dir) / "replay_buffer.pkl").is_file()
-    # resume with a larger budget: continues from the checkpoint, keeps the replay buffer
+    # resume with a larger budget: continues from the checkpoint, keeps the replay buffer, and
+    # uses the config's torch threads (two OpenMP threads on a busy 2-core machine thrash)
+    th.set_num_threads(2)
     resume(run_dir, quiet=True, episodes=episodes + 2)
+    assert th.get_num_threads() == config.run.torch_threads == 1
     assert episodes_in(run_dir) == list(range(1, episodes + 3))
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
