@@ -63,12 +63,21 @@ def _state(run_dir: Path) -> dict:
     return json.loads((checkpoint / "state.json").read_text()) if checkpoint is not None else {}
 
 
+CURVE_KEYS = ("episode", "success", "return", "wall_time_s", "base_fraction")
+
+
+def _number(text: str | None) -> float:
+    return float(text) if text not in (None, "") else np.nan
+
+
 def read_curve(path: Path) -> dict[str, np.ndarray]:
-    if not path.is_file():
-        return {"episode": np.zeros(0), "success": np.zeros(0), "return": np.zeros(0)}
-    with open(path, newline="") as handle:
-        rows = list(csv.DictReader(handle))
-    return {key: np.array([float(r[key]) for r in rows]) for key in ("episode", "success", "return", "wall_time_s")}
+    """``episodes.csv`` columns as arrays; NaN where a row lacks a value (``base_fraction`` is
+    logged for subgoal controls only, and not by runs older than that column)."""
+    rows = []
+    if path.is_file():
+        with open(path, newline="") as handle:
+            rows = list(csv.DictReader(handle))
+    return {key: np.array([_number(r.get(key)) for r in rows]) for key in CURVE_KEYS}
 
 
 def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
@@ -106,12 +115,13 @@ def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray) -> np.ndarray:
 
 PANELS = (("success", "episode", "success rate", "environment episodes"),
           ("return", "episode", "episode return", "environment episodes"),
-          ("return", "hours", "episode return", "wall-clock hours"))
+          ("return", "hours", "episode return", "wall-clock hours"),
+          ("base_fraction", "episode", "base share of subgoals", "environment episodes"))
 
 
 def _mean_and_std(runs: list[dict], key: str, axis_key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Seed mean and std of the smoothed ``key`` on a common grid of episodes or hours."""
-    curves = [dict(r["curve"], hours=r["curve"].get("wall_time_s", np.zeros(0)) / 3600) for r in runs]
+    curves = [dict(r["curve"], hours=r["curve"]["wall_time_s"] / 3600) for r in runs]
     last = max(c[axis_key].max(initial=0) for c in curves)
     start = 1.0 if axis_key == "episode" else 0.0
     grid = np.linspace(start, max(last, start + 1e-6), 200)
@@ -125,7 +135,7 @@ def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
     """Per task: success rate and return against episodes (the paper's x-axis) and return
     against wall-clock hours (the equal-budget comparison); mean and std over seeds."""
     tasks = sorted({task for task, _ in groups})
-    fig, axes = plt.subplots(len(PANELS), len(tasks), figsize=(5.5 * len(tasks), 10), squeeze=False)
+    fig, axes = plt.subplots(len(PANELS), len(tasks), figsize=(5.5 * len(tasks), 13), squeeze=False)
     for column, task in enumerate(tasks):
         for (group_task, algo), runs in sorted(groups.items()):
             if group_task != task:

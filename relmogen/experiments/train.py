@@ -34,7 +34,8 @@ from relmogen.experiments.config import TrainConfig, read_config, save_config
 
 CHECKPOINTS = "checkpoints"
 LATEST = "latest"  # a file naming the newest complete checkpoint folder
-EPISODE_FIELDS = ["episode", "timesteps", "wall_time_s", "return", "length", "success"]
+EPISODE_FIELDS = ["episode", "timesteps", "wall_time_s", "return", "length", "success",
+                  "base_fraction", "subgoal_success"]  # the last two: subgoal controls only
 SUCCESS_WINDOW = 20
 
 
@@ -162,6 +163,7 @@ class TrainingMonitor(BaseCallback):
         self.csv = csv.DictWriter(self.csv_file, fieldnames=EPISODE_FIELDS, extrasaction="ignore")
         if self.csv_file.tell() == 0:
             self.csv.writeheader()
+        self.subgoals: dict[int, list[tuple[bool, bool]]] = {}  # env index -> (is base, plan found) per step
         self.progress = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[stats]}"),
                                  TimeElapsedColumn(), disable=quiet)
         self.bar = None
@@ -185,16 +187,18 @@ class TrainingMonitor(BaseCallback):
         self.progress.stop()
 
     def _on_step(self) -> bool:
-        for info, done in zip(self.locals["infos"], self.locals["dones"]):
+        for index, (info, done) in enumerate(zip(self.locals["infos"], self.locals["dones"])):
+            if "subgoal_type" in info:
+                self.subgoals.setdefault(index, []).append((info["subgoal_type"] == "base", bool(info["plan_found"])))
             if done and "episode" in info:
-                self._record_episode(info)
+                self._record_episode(info, self.subgoals.pop(index, []))
         return not self._budget_spent()
 
     def _budget_spent(self) -> bool:
         hours = self.config.max_hours
         return self.state["episodes"] >= self.config.episodes or (hours is not None and self.wall_time >= hours * 3600)
 
-    def _record_episode(self, info: dict) -> None:
+    def _record_episode(self, info: dict, subgoals: list[tuple[bool, bool]]) -> None:
         self.state["episodes"] += 1
         self.state["timesteps"] = self.model.num_timesteps
         episode, success = self.state["episodes"], float(info.get("is_success", False))
@@ -202,6 +206,9 @@ class TrainingMonitor(BaseCallback):
         sps = (self.model.num_timesteps - self.steps_at_start) / max(time.time() - self.session_start, 1e-9)
         row = {"episode": episode, "timesteps": self.model.num_timesteps, "wall_time_s": round(self.wall_time, 2),
                "return": info["episode"]["r"], "length": info["episode"]["l"], "success": success}
+        if subgoals:
+            row["base_fraction"] = round(float(np.mean([base for base, _ in subgoals])), 4)
+            row["subgoal_success"] = round(float(np.mean([found for _, found in subgoals])), 4)
         self.csv.writerow(row)
         self.csv_file.flush()
         self._log_scalars(episode, row, sps)
@@ -229,6 +236,9 @@ class TrainingMonitor(BaseCallback):
         self.writer.add_scalar("charts/success_rate", float(np.mean(self.successes)), episode)
         self.writer.add_scalar("charts/SPS", sps, episode)
         self.writer.add_scalar("charts/timesteps", self.model.num_timesteps, episode)
+        for key in ("base_fraction", "subgoal_success"):
+            if key in row:
+                self.writer.add_scalar(f"charts/{key}", row[key], episode)
         for key, value in self.model.logger.name_to_value.items():
             if key.startswith("train/"):
                 self.writer.add_scalar(f"losses/{key.split('/', 1)[1]}", value, episode)
@@ -285,13 +295,15 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
 
 
 def _truncate_episode_log(path: Path, episodes: int) -> None:
-    """Drop rows written after the checkpoint we resume from (they will be replayed)."""
+    """Drop rows written after the checkpoint we resume from (they will be replayed); the file
+    is rewritten with the current columns (a run logged by an older version gains the new
+    ones, empty in its old rows)."""
     if not path.is_file():
         return
     with open(path, newline="") as handle:
         rows = [row for row in csv.DictReader(handle) if int(row["episode"]) <= episodes]
     with open(path, "w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=EPISODE_FIELDS)
+        writer = csv.DictWriter(handle, fieldnames=EPISODE_FIELDS, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
 

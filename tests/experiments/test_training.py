@@ -17,7 +17,7 @@ import torch as th
 from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.experiments.config import resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_policy
-from relmogen.experiments.train import latest_checkpoint, resume, train
+from relmogen.experiments.train import EPISODE_FIELDS, _truncate_episode_log, latest_checkpoint, resume, train
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 
 
@@ -32,6 +32,11 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     run_dir = train(config, tmp_path, quiet=True)
     assert (run_dir / "config.yaml").is_file() and list((run_dir / "tb").iterdir())
     assert episodes_in(run_dir) == list(range(1, episodes + 1))
+    shares = [row["base_fraction"] for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))]
+    if algo.startswith("relmogen"):  # subgoal controls log the base share of each episode's subgoals
+        assert all(0.0 <= float(share) <= 1.0 for share in shares)
+    else:
+        assert set(shares) == {""}
     state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
     assert state["episodes"] == episodes and state["timesteps"] >= episodes
     assert (latest_checkpoint(run_dir) / "replay_buffer.pkl").is_file()
@@ -63,6 +68,16 @@ def assert_exported_actor_acts_like_the_model(run_dir: Path, out: Path):
         assert shipped.provenance["run"] == run_dir.name and shipped.config == config
     finally:
         env.close()
+
+
+def test_resuming_an_older_episode_log_keeps_its_rows_and_adds_the_new_columns(tmp_path):
+    log = tmp_path / "episodes.csv"
+    log.write_text("episode,timesteps,wall_time_s,return,length,success\n1,25,1.0,0.5,25,0.0\n2,50,2.0,0.7,25,1.0\n"
+                   "3,75,3.0,0.1,25,0.0\n")
+    _truncate_episode_log(log, episodes=2)
+    rows = list(csv.DictReader(open(log, newline="")))
+    assert list(rows[0]) == EPISODE_FIELDS and "base_fraction" in EPISODE_FIELDS
+    assert [(r["episode"], r["return"], r["base_fraction"]) for r in rows] == [("1", "0.5", ""), ("2", "0.7", "")]
 
 
 def test_resume_after_kill_9_loses_at_most_one_checkpoint_interval(tmp_path):
