@@ -276,6 +276,7 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
     """Continue a run from its latest checkpoint, optionally with a new episode budget or a new
     total wall-clock budget (hours counted from the run's start, across resumes)."""
     run_dir = Path(run_dir)
+    (run_dir / "done.json").unlink(missing_ok=True)  # running again: not done until _learn returns
     config = read_config(run_dir / "config.yaml")
     updates = {key: value for key, value in (("episodes", episodes), ("max_hours", max_hours)) if value is not None}
     if updates:
