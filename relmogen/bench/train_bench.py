@@ -6,7 +6,8 @@ batch), then ``model.train`` is timed for ``updates`` gradient steps. Environmen
 second are measured on one environment of the preset's image size with random actions (a
 preset's ``n_envs`` workers run these in parallel). For SGP-R the same update is also timed
 with SB3's stock SAC (separate encoders for actor, critic and target), which is the cost our
-shared encoder avoids.
+shared encoder avoids. For SGP-D the replay memory is reported too (bytes of the allocated
+arrays, per 1e4 transitions and at the preset's buffer size).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import resolve_config
 from relmogen.experiments.train import build_model, env_kwargs
 
+ALGOS = ("relmogen-r", "sac", "relmogen-d")
 COLLECTED = 16  # real transitions per benchmark; repeated to fill one batch
 
 
@@ -76,6 +78,10 @@ def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0) ->
         _fill_buffer(stock, batch)
         result["stock_sb3_sac_updates_per_s"] = round(_updates_per_second(stock, updates, batch), 3)
         result["shared_encoder_speedup"] = round(result["updates_per_s"] / result["stock_sb3_sac_updates_per_s"], 3)
+    if algo == "relmogen-d":
+        buffer = model.replay_buffer
+        result["replay_gib_per_1e4_transitions"] = round(buffer.nbytes() / buffer.buffer_size * 1e4 / 2**30, 3)
+        result["replay_gib_at_preset_size"] = round(buffer.nbytes() / 2**30, 3)
     env.close()
     return result
 
@@ -84,7 +90,7 @@ def bench_train(task: str = "PushDoorNav", presets: tuple[str, ...] = ("cpu", "p
                 advance=None) -> dict:
     runs = []
     for preset in presets:
-        for algo in ("relmogen-r", "sac"):
+        for algo in ALGOS:
             runs.append(bench_one(task, algo, preset, updates))
             if advance is not None:
                 advance()

@@ -103,3 +103,13 @@ def test_train_bench_times_updates_and_env_steps():
     for key in ("env_steps_per_s", "updates_per_s", "stock_sb3_sac_updates_per_s", "shared_encoder_speedup"):
         assert math.isfinite(result[key]) and result[key] > 0, key
     assert result["image_size"] == 64 and result["batch_size"] == 8
+
+
+def test_train_bench_reports_sgpd_replay_memory():
+    from relmogen.bench.train_bench import bench_one
+
+    result = bench_one("PointNav", "relmogen-d", "tiny", updates=2)
+    assert result["updates_per_s"] > 0 and result["env_steps_per_s"] > 0
+    # tiny preset: 64 px, buffer of 200 transitions; per 1e4 it is the same figure scaled up
+    per_1e4, at_size = result["replay_gib_per_1e4_transitions"], result["replay_gib_at_preset_size"]
+    assert per_1e4 == pytest.approx(at_size * 1e4 / 200, rel=0.02) and 0.1 < per_1e4 < 1.0
