@@ -312,10 +312,10 @@ def _truncate_episode_log(path: Path, episodes: int) -> None:
 def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) -> Path:
     monitor = TrainingMonitor(run_dir, config, state, quiet)
     try:
-        if not monitor._budget_spent():
+        if not monitor._budget_spent():  # else the latest checkpoint already holds everything
             model.learn(total_timesteps=10**12, callback=monitor, reset_num_timesteps=state["timesteps"] == 0,
                         progress_bar=False)
-        monitor.checkpoint()
+            monitor.checkpoint()
     finally:
         monitor.close()
         model.get_env().close()

@@ -45,6 +45,10 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     th.set_num_threads(2)
     resume(run_dir, quiet=True, episodes=episodes + 2)
     assert th.get_num_threads() == config.run.torch_threads == 1
+    # resuming a run whose budget is spent finishes at once, from the same checkpoint
+    before = latest_checkpoint(run_dir)
+    resume(run_dir, quiet=True)
+    assert latest_checkpoint(run_dir) == before and (run_dir / "done.json").is_file()
     assert episodes_in(run_dir) == list(range(1, episodes + 3))
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
