@@ -26,9 +26,18 @@ CURVE_SMOOTHING = 20  # episodes in the moving average of each seed's curve
 
 
 def final_evaluation(run_dir: Path) -> dict | None:
-    evals = sorted((run_dir / "eval").glob("*collision-on*.json"), key=lambda p: p.stat().st_mtime)
-    if evals:
-        return json.loads(evals[-1].read_text())
+    """The run's reference evaluation: arm collision checking on, with the planners it was
+    trained with, the most episodes, then the newest (planner-swap and scene-transfer
+    evaluations sit beside it and are reported separately); else the last periodic one."""
+    config = read_config(run_dir / "config.yaml")
+    evals = [json.loads(p.read_text()) | {"_mtime": p.stat().st_mtime}
+             for p in (run_dir / "eval").glob("*collision-on*.json")]
+    same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
+                     and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
+                     and (config.env.scene is None or e.get("scene") == config.env.scene)]
+    if same_planners:
+        best = max(same_planners, key=lambda e: (e.get("episodes", 0), e["_mtime"]))
+        return {k: v for k, v in best.items() if k != "_mtime"}
     periodic = run_dir / "eval_during_training.jsonl"
     if periodic.is_file():
         lines = periodic.read_text().strip().splitlines()
@@ -47,6 +56,7 @@ def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
         config = read_config(run_dir / "config.yaml")
         groups[(config.task, config.algo)].append({
             "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir),
+            "all_evals": [json.loads(p.read_text()) for p in sorted((run_dir / "eval").glob("*.json"))],
             "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
         })
     return groups
@@ -101,6 +111,30 @@ def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
     lines.append("")
     lines.append("Cells are mean / std / max over seeds of the final evaluation (deterministic policy). "
                  "episodes, wall-clock h and CPU h (trainer plus environment workers) are means over seeds.")
+    return "\n".join(lines)
+
+
+SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "episodes")
+SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction")
+
+
+def settings_table(groups: dict[tuple[str, str], list[dict]]) -> str:
+    """Every evaluation setting found (planner swaps, scene transfer, collision off, episode
+    counts): mean / std / max over the seeds evaluated with it."""
+    lines = ["| task | algorithm | " + " | ".join(SETTING_KEYS) + " | seeds | " + " | ".join(SETTING_METRICS) + " |",
+             "|---|---|" + "---|" * (len(SETTING_KEYS) + 1 + len(SETTING_METRICS))]
+    for (task, algo), runs in sorted(groups.items()):
+        by_setting: dict[tuple, list[dict]] = defaultdict(list)
+        for run in runs:
+            for evaluation in run.get("all_evals", []):
+                by_setting[tuple(str(evaluation.get(key, "-")) for key in SETTING_KEYS)].append(evaluation)
+        for setting, evals in sorted(by_setting.items()):
+            cells = []
+            for metric in SETTING_METRICS:
+                values = [e[metric] for e in evals if metric in e]
+                s = summarise(values) if values else None
+                cells.append(f"{s['mean']:.2f} / {s['std']:.2f} / {s['max']:.2f}" if s else "-")
+            lines.append(f"| {task} | {algo} | " + " | ".join(setting) + f" | {len(evals)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -163,6 +197,7 @@ def write_report(run_dirs: list[Path], out: Path) -> dict[str, str]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     table = markdown_table(groups)
+    table += "\n\n## Every evaluation setting\n\n" + settings_table(groups) + "\n"
     (out / "table.md").write_text(table + "\n")
     curves = plot_curves(groups, out / "curves.png")
     return {"table": str(out / "table.md"), "curves": str(curves), "markdown": table}

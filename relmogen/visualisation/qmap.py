@@ -29,7 +29,7 @@ import torch as th  # noqa: E402
 from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
 from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS  # noqa: E402
 
-OVERLAY_ALPHA = 0.55
+OVERLAY_ALPHA = 0.45
 ARROW_CELLS = 2.5  # arrow length in Q-map cells
 
 
@@ -122,9 +122,12 @@ def _base_panel(axis, state: QMapState) -> None:
 
 
 def draw_q_map_state(state: QMapState, path: Path, title: str) -> Path:
-    figure, axes = plt.subplots(1, 2, figsize=(9.0, 4.8))
-    _arm_panel(axes[0], state)
-    _base_panel(axes[1], state)
+    figure, axes = plt.subplots(1, 3, figsize=(13.0, 4.8))
+    axes[0].imshow(state.rgb)
+    axes[0].set_title("RGB (robot camera)", fontsize=9)
+    axes[0].set_axis_off()
+    _arm_panel(axes[1], state)
+    _base_panel(axes[2], state)
     part, bin_, i, j = state.choice
     figure.suptitle(f"{title} - step {state.step}: chose {part} (bin {bin_}, cell {i},{j})", fontsize=10)
     figure.tight_layout()

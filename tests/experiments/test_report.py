@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from relmogen.experiments.config import resolve_config, save_config
-from relmogen.experiments.report import write_report
+from relmogen.experiments.report import final_evaluation, write_report
 
 
 def fake_run(root, algo, seed, success_rate, spl):
@@ -44,3 +44,26 @@ def test_table_has_mean_std_max_over_seeds(tmp_path):
 def test_report_without_runs_is_an_error(tmp_path):
     with pytest.raises(ValueError, match="no run"):
         write_report([], tmp_path)
+
+
+def test_reference_evaluation_uses_the_training_planners_and_the_most_episodes(tmp_path):
+    run = fake_run(tmp_path, "relmogen-r", 0, 0.5, 0.4)
+    def write(name, planner, episodes, success_rate):
+        (run / "eval" / name).write_text(json.dumps(
+            {"success_rate": success_rate, "spl": 0.0, "closed_5": 0.0, "closed_10": 0.0, "episodes": episodes,
+             "base_planner": planner, "arm_planner": planner, "scene": "office_A"}))
+    write("eval_office_A_rrt_connect_rrt_connect_collision-on_100ep.json", "rrt_connect", 100, 0.7)
+    write("eval_office_A_lazy_prm_lazy_prm_collision-on_50ep.json", "lazy_prm", 50, 0.1)  # newest: a swap
+    write("eval_office_A_rrt_connect_rrt_connect_collision-on_20ep.json", "rrt_connect", 20, 0.2)
+    assert final_evaluation(run)["success_rate"] == 0.7
+
+
+def test_every_evaluation_setting_gets_a_row(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", s, 0.5, 0.4) for s in (0, 1)]
+    for run, rate in zip(runs, (0.2, 0.4)):
+        (run / "eval" / "swap.json").write_text(json.dumps(
+            {"success_rate": rate, "spl": 0.1, "closed_10": 0.0, "episodes": 50, "scene": "office_A",
+             "base_planner": "lazy_prm", "arm_planner": "lazy_prm", "arm_collision": True}))
+    table = write_report(runs, tmp_path / "report")["markdown"]
+    swap = next(line for line in table.splitlines() if "lazy_prm" in line)
+    assert "| 2 | 0.30 / 0.10 / 0.40 |" in swap

@@ -49,7 +49,7 @@ def test_figures_are_written_every_stride_steps(model_and_env, tmp_path):
     assert len(paths) == 3 and all(p.is_file() for p in paths)
     assert "step00" in paths[0].name and "step02" in paths[1].name
     image = imageio.imread(paths[0])
-    assert image.ndim == 3 and image.shape[1] > image.shape[0] > 300  # two panels side by side
+    assert image.ndim == 3 and image.shape[1] > image.shape[0] > 300  # three panels side by side
     assert image[..., :3].std() > 10  # not a blank canvas
 
 
