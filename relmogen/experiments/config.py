@@ -43,6 +43,8 @@ class AlgoConfig(_Strict):
     train_freq: int = Field(1, ge=1)
     gradient_steps: int = Field(1, ge=1)
     net_arch: list[int] = Field(default_factory=lambda: [256, 256])
+    # SAC family: the entropy temperature is learned, starting here (SB3's "auto" starts at 1.0)
+    ent_coef_init: float = Field(1.0, gt=0)
     beta_ub: float | None = None  # OAC only
     delta: float | None = None  # OAC only
     # DQN (relmogen-d) only

@@ -73,7 +73,8 @@ def build_model(config: TrainConfig, env):
     common = dict(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                   batch_size=params.batch_size, tau=params.tau, gamma=params.gamma,
                   learning_starts=params.learning_starts, train_freq=params.train_freq,
-                  gradient_steps=params.gradient_steps, policy_kwargs=policy_kwargs, seed=config.seed,
+                  gradient_steps=params.gradient_steps, ent_coef=f"auto_{params.ent_coef_init}",
+                  policy_kwargs=policy_kwargs, seed=config.seed,
                   device=resolve_device(config.device), verbose=0)
     if config.algo == "oac":
         return OAC(beta_ub=params.beta_ub or 4.66, delta=params.delta or 23.53, **common)

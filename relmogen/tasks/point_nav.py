@@ -2,8 +2,9 @@
 
 Task Description:
     The robot starts somewhere on the office floor and must bring its base centre within
-    0.5 m of a goal point. Only the base is needed; touching anything with a part other than
-    the gripper ends the episode (joint-velocity control).
+    0.5 m of a goal point. Only the base is needed: subgoal policies choose base subgoals
+    only (as in the original, pure navigation uses the base part of the action); touching
+    anything with a part other than the gripper ends the episode (joint-velocity control).
 
 Randomizations:
     Start position and yaw, and the goal position, sampled on the static floor plan every
@@ -34,6 +35,7 @@ from relmogen.tasks.navigation import NavigationTask
 @register_task
 class PointNav(NavigationTask):
     name = "PointNav"
+    subgoal_parts = ("base",)
     min_geodesic = 1.0
     max_geodesic = 10.0
 

@@ -181,7 +181,14 @@ def test_subgoal_d_index_mapping_round_trips():
     env.close()
 
 
-def test_arm_pixel_without_depth_is_a_no_op_with_a_reason(nav):
+def test_pointnav_subgoals_are_base_only(nav):
+    nav.reset(seed=0)
+    _, _, _, _, info = nav.step(np.array([-1, 0, 0, 0.5, 0, 0, 0, 0], dtype=np.float32))  # a[0] < 0 is ignored
+    assert info["subgoal_type"] == "base"
+
+
+def test_arm_pixel_without_depth_is_a_no_op_with_a_reason():
+    nav = RelmogenEnv(task="PushDoorNav", control="subgoal-r", image_size=64)
     nav.reset(seed=0)
     nav.last_frame.depth[0, 0] = 0.0  # force: the top-left pixel has no return
     before = world_snapshot(nav)
@@ -190,6 +197,7 @@ def test_arm_pixel_without_depth_is_a_no_op_with_a_reason(nav):
     assert info["subgoal_type"] == "arm" and info["reason"] == "pixel has no depth"
     assert not info["plan_found"]
     np.testing.assert_allclose(world_snapshot(nav), before, atol=1e-9)
+    nav.close()
 
 
 def test_pushing_into_a_wall_reports_a_blocked_push():
