@@ -165,6 +165,7 @@ class TrainingMonitor(BaseCallback):
         if self.csv_file.tell() == 0:
             self.csv.writeheader()
         self.subgoals: dict[int, list[tuple[bool, bool]]] = {}  # env index -> (is base, plan found) per step
+        self.term_sums: dict[int, dict[str, float]] = {}  # env index -> reward terms summed over the episode
         self.progress = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[stats]}"),
                                  TimeElapsedColumn(), disable=quiet)
         self.bar = None
@@ -191,15 +192,18 @@ class TrainingMonitor(BaseCallback):
         for index, (info, done) in enumerate(zip(self.locals["infos"], self.locals["dones"])):
             if "subgoal_type" in info:
                 self.subgoals.setdefault(index, []).append((info["subgoal_type"] == "base", bool(info["plan_found"])))
+            sums = self.term_sums.setdefault(index, {})
+            for term, value in info.get("reward_terms", {}).items():
+                sums[term] = sums.get(term, 0.0) + value
             if done and "episode" in info:
-                self._record_episode(info, self.subgoals.pop(index, []))
+                self._record_episode(info, self.subgoals.pop(index, []), self.term_sums.pop(index))
         return not self._budget_spent()
 
     def _budget_spent(self) -> bool:
         hours = self.config.max_hours
         return self.state["episodes"] >= self.config.episodes or (hours is not None and self.wall_time >= hours * 3600)
 
-    def _record_episode(self, info: dict, subgoals: list[tuple[bool, bool]]) -> None:
+    def _record_episode(self, info: dict, subgoals: list[tuple[bool, bool]], term_sums: dict[str, float]) -> None:
         self.state["episodes"] += 1
         self.state["timesteps"] = self.model.num_timesteps
         episode, success = self.state["episodes"], float(info.get("is_success", False))
@@ -213,6 +217,8 @@ class TrainingMonitor(BaseCallback):
         self.csv.writerow(row)
         self.csv_file.flush()
         self._log_scalars(episode, row, sps)
+        for term, total in term_sums.items():  # which reward terms the policy collects (door, button, ...)
+            self.writer.add_scalar(f"reward_terms/{term}", total, episode)
         self.progress.update(self.bar, completed=episode,
                              stats=f"SR {np.mean(self.successes):.2f}  {sps:.1f} steps/s  {self.model.num_timesteps} steps")
         if episode % self.config.run.checkpoint_every_episodes == 0:

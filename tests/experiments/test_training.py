@@ -13,6 +13,7 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 import torch as th
+from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.experiments.config import resolve_config
@@ -31,6 +32,9 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     config = resolve_config("PointNav", algo, seed=0, preset="tiny", episodes=episodes)
     run_dir = train(config, tmp_path, quiet=True)
     assert (run_dir / "config.yaml").is_file() and list((run_dir / "tb").iterdir())
+    tags = EventAccumulator(str(run_dir / "tb")).Reload().Tags()["scalars"]
+    assert {"charts/episodic_return", "charts/success_rate", "charts/SPS", "reward_terms/geodesic"} <= set(tags)
+    assert len(EventAccumulator(str(run_dir / "tb")).Reload().Scalars("reward_terms/geodesic")) == episodes
     assert episodes_in(run_dir) == list(range(1, episodes + 1))
     shares = [row["base_fraction"] for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))]
     if algo.startswith("relmogen"):  # subgoal controls log the base share of each episode's subgoals
