@@ -94,3 +94,28 @@ def test_a_pose_where_the_renderer_returns_nan_is_rendered_from_1_mm_away(world,
     frame = camera.capture(np.array([0.0, 0.0, 1.0]), np.eye(3))
     assert len(calls) == 2 and np.linalg.norm(calls[1] - calls[0]) == pytest.approx(1e-3)
     assert np.isfinite(frame.depth).all() and frame.depth[32, 32] == pytest.approx(1.5, abs=0.02)
+
+
+def test_pixels_that_stay_nan_at_every_shift_read_as_no_return(world, monkeypatch):
+    add_box(world.client, [2.0, 0.0, 1.0], [0.5, 3.0, 3.0])
+    camera = Camera(world.client)
+    real_render = camera._render
+
+    def corner_always_nan(eye, rotation):
+        rgba, z = real_render(eye, rotation)
+        z = z.copy()
+        z[:10] = np.nan
+        return rgba, z
+
+    monkeypatch.setattr(camera, "_render", corner_always_nan)
+    frame = camera.capture(np.array([0.0, 0.0, 1.0]), np.eye(3))
+    assert np.isfinite(frame.depth).all()
+    assert (frame.depth.ravel()[:10] == 0.0).all() and frame.depth[32, 32] == pytest.approx(1.5, abs=0.02)
+
+
+def test_an_all_nan_image_at_every_shift_is_an_error(world, monkeypatch):
+    camera = Camera(world.client)
+    monkeypatch.setattr(camera, "_render", lambda eye, rotation: (np.zeros((128, 128, 4), np.uint8),
+                                                                  np.full(128 * 128, np.nan, np.float32)))
+    with pytest.raises(RuntimeError, match="NaN depth"):
+        camera.capture(np.array([0.0, 0.0, 1.0]), np.eye(3))
