@@ -10,7 +10,7 @@
     relmogen train --task T --algo A [--seed S] [--preset P] [--episodes N] [--max-hours H]
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--episodes N] [--base-planner X] [--arm-planner Y]
-                  [--arm-collision on|off] [--scene A|B] [--json]
+                  [--arm-collision on|off] [--scene A|B] [--stochastic] [--json]
     relmogen export RUN_DIR_OR_CHECKPOINT --out DIR
     relmogen report RUN_DIRS... --out DIR
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S]
@@ -81,7 +81,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from relmogen.experiments.evaluate import evaluate_path
 
     result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
-                           args.arm_collision == "on", args.scene, args.device, quiet=args.json)
+                           args.arm_collision == "on", args.scene, args.device, quiet=args.json,
+                           stochastic=args.stochastic)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
     return 0
 
@@ -211,6 +212,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--arm-collision", choices=["on", "off"], default="on")
     evaluate.add_argument("--scene", default=None, help="A or B (or a full scene name)")
     evaluate.add_argument("--device", default="auto")
+    evaluate.add_argument("--stochastic", action="store_true",
+                          help="sample SGP-R/SAC actions instead of the deterministic mean")
     evaluate.add_argument("--json", action="store_true")
     evaluate.set_defaults(func=cmd_eval)
 

@@ -1,5 +1,9 @@
 """``relmogen eval``: a trained policy, deterministic, with the task metrics and MG statistics.
 
+``stochastic=True`` samples SGP-R / SAC actions from the policy instead: a deterministic
+subgoal policy whose subgoal finds no plan sees the same observation again (the step was a
+no-op) and repeats it until the episode ends, so both figures are worth reporting.
+
 The planners, arm collision checking and scene can differ from training: that is how the
 paper's planner-swap (Table II) and scene-transfer results are measured.
 """
@@ -21,19 +25,20 @@ from relmogen.experiments.train import env_kwargs, latest_checkpoint, model_clas
 
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
-                   quiet: bool = False) -> dict:
+                   quiet: bool = False, stochastic: bool = False) -> dict:
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
     if config.algo == "relmogen-d":
         act = env_policy(model, env)  # greedy over the free base cells only
     else:
-        act = lambda obs: model.predict(obs, deterministic=True)[0]  # noqa: E731
+        act = lambda obs: model.predict(obs, deterministic=not stochastic)[0]  # noqa: E731
     try:
         records = run_episodes(env, act, episodes, seed, quiet, description=f"eval {config.task}")
     finally:
         env.close()
-    settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name}
+    settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name,
+                "policy": "stochastic" if stochastic and config.algo != "relmogen-d" else "deterministic"}
     if config.control != "joint":
         settings.update(base_planner=base_planner or config.env.base_planner,
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)
@@ -57,12 +62,14 @@ def load_policy(path: Path, device: str = "auto"):
 
 def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | None = None,
                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
-                  device: str = "auto", quiet: bool = False, save: bool = True) -> dict:
+                  device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False) -> dict:
     model, config, run_dir = load_policy(path, device)
-    result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet)
+    result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
+                            stochastic)
     if save:
         name = f"eval_{result.get('scene')}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_" \
-               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep.json"
+               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep" \
+               f"{'_stochastic' if result['policy'] == 'stochastic' else ''}.json"
         (run_dir / "eval").mkdir(exist_ok=True)
         (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
     return result

@@ -32,6 +32,7 @@ def final_evaluation(run_dir: Path) -> dict | None:
     config = read_config(run_dir / "config.yaml")
     evals = [json.loads(p.read_text()) | {"_mtime": p.stat().st_mtime}
              for p in (run_dir / "eval").glob("*collision-on*.json")]
+    evals = [e for e in evals if e.get("policy", "deterministic") == "deterministic"]
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
                      and (config.env.scene is None or e.get("scene") == config.env.scene)]
@@ -114,7 +115,7 @@ def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
     return "\n".join(lines)
 
 
-SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "episodes")
+SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "policy", "episodes")
 SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction")
 
 
@@ -127,7 +128,8 @@ def settings_table(groups: dict[tuple[str, str], list[dict]]) -> str:
         by_setting: dict[tuple, list[dict]] = defaultdict(list)
         for run in runs:
             for evaluation in run.get("all_evals", []):
-                by_setting[tuple(str(evaluation.get(key, "-")) for key in SETTING_KEYS)].append(evaluation)
+                by_setting[tuple(str(evaluation.get(key, "deterministic" if key == "policy" else "-"))
+                                 for key in SETTING_KEYS)].append(evaluation)
         for setting, evals in sorted(by_setting.items()):
             cells = []
             for metric in SETTING_METRICS:

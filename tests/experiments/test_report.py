@@ -56,6 +56,10 @@ def test_reference_evaluation_uses_the_training_planners_and_the_most_episodes(t
     write("eval_office_A_lazy_prm_lazy_prm_collision-on_50ep.json", "lazy_prm", 50, 0.1)  # newest: a swap
     write("eval_office_A_rrt_connect_rrt_connect_collision-on_20ep.json", "rrt_connect", 20, 0.2)
     assert final_evaluation(run)["success_rate"] == 0.7
+    stochastic = json.loads((run / "eval" / "eval_office_A_rrt_connect_rrt_connect_collision-on_100ep.json").read_text())
+    (run / "eval" / "eval_office_A_rrt_connect_rrt_connect_collision-on_200ep_stochastic.json").write_text(
+        json.dumps(dict(stochastic, episodes=200, success_rate=0.9, policy="stochastic")))
+    assert final_evaluation(run)["success_rate"] == 0.7  # the reference is the deterministic policy
 
 
 def test_every_evaluation_setting_gets_a_row(tmp_path):

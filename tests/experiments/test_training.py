@@ -56,6 +56,10 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     assert episodes_in(run_dir) == list(range(1, episodes + 3))
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
+    assert result["policy"] == "deterministic"
+    if algo != "relmogen-d":  # SGP-R / SAC can also be evaluated with sampled actions
+        sampled = evaluate_path(run_dir, episodes=1, quiet=True, stochastic=True)
+        assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic.json"))
     assert list((run_dir / "eval").glob("*.json"))
     if algo == "relmogen-d":
         figures = q_map_figures_for_checkpoint(run_dir, tmp_path / "qmap", states=1)
