@@ -25,6 +25,11 @@ TABLE_METRICS = ("success_rate", "spl", "closed_5", "closed_10")
 CURVE_SMOOTHING = 20  # episodes in the moving average of each seed's curve
 
 
+def policy_of(evaluation: dict) -> str:
+    """How actions were chosen; evaluations written before the field existed were deterministic."""
+    return evaluation.get("policy", "deterministic")
+
+
 def final_evaluation(run_dir: Path) -> dict | None:
     """The run's reference evaluation: arm collision checking on, with the planners it was
     trained with, the most episodes, then the newest (planner-swap and scene-transfer
@@ -32,7 +37,7 @@ def final_evaluation(run_dir: Path) -> dict | None:
     config = read_config(run_dir / "config.yaml")
     evals = [json.loads(p.read_text()) | {"_mtime": p.stat().st_mtime}
              for p in (run_dir / "eval").glob("*collision-on*.json")]
-    evals = [e for e in evals if e.get("policy", "deterministic") == "deterministic"]
+    evals = [e for e in evals if policy_of(e) == "deterministic"]
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
                      and (config.env.scene is None or e.get("scene") == config.env.scene)]
@@ -128,8 +133,8 @@ def settings_table(groups: dict[tuple[str, str], list[dict]]) -> str:
         by_setting: dict[tuple, list[dict]] = defaultdict(list)
         for run in runs:
             for evaluation in run.get("all_evals", []):
-                by_setting[tuple(str(evaluation.get(key, "deterministic" if key == "policy" else "-"))
-                                 for key in SETTING_KEYS)].append(evaluation)
+                setting = dict(evaluation, policy=policy_of(evaluation))
+                by_setting[tuple(str(setting.get(key, "-")) for key in SETTING_KEYS)].append(evaluation)
         for setting, evals in sorted(by_setting.items()):
             cells = []
             for metric in SETTING_METRICS:

@@ -94,7 +94,7 @@ class Camera:
 
     def capture(self, position: np.ndarray, rotation: np.ndarray) -> CameraFrame:
         position = np.asarray(position, dtype=np.float64)
-        best = None
+        best, best_nan = None, None
         for attempt in range(_RENDER_ATTEMPTS):
             # TinyRenderer returns an all-NaN z-buffer (and a black image) for rare exact
             # poses; shifting the eye along its up axis (1 mm, then 1 cm) renders normally.
@@ -103,15 +103,15 @@ class Camera:
             nan = np.isnan(zbuffer)
             if not nan.any():
                 return CameraFrame(rgba[..., :3], self._linearise(zbuffer), position, np.asarray(rotation))
-            if not nan.all() and (best is None or nan.sum() < np.isnan(best[1]).sum()):
-                best = rgba, zbuffer
+            if not nan.all() and (best is None or nan.sum() < best_nan.sum()):
+                best, best_nan = (rgba, zbuffer), nan
         if best is None:
             raise RuntimeError(f"the renderer returned NaN depth at camera position {position}")
         # some pixels stayed NaN at every shift (seen once in 1e5 training steps, where it killed
         # an environment worker): they read as no return rather than ending the run
         rgba, zbuffer = best
         depth = self._linearise(np.nan_to_num(zbuffer, nan=1.0))
-        depth[np.isnan(zbuffer).reshape(depth.shape)] = INVALID_DEPTH
+        depth[best_nan.reshape(depth.shape)] = INVALID_DEPTH
         return CameraFrame(rgba[..., :3], depth, position, np.asarray(rotation))
 
     def _render(self, eye: np.ndarray, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
