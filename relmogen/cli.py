@@ -190,7 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     train = sub.add_parser("train", help="train a policy (SB3), with checkpoints and resume")
     train.add_argument("--task")
-    train.add_argument("--algo", help="relmogen-r, sac or oac")
+    train.add_argument("--algo", help="relmogen-r, relmogen-d, sac or oac")
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--preset", default="cpu", help="a YAML preset in relmogen/configs/presets")
     train.add_argument("--episodes", type=_positive_int, default=None, help="episode budget (default 1000)")

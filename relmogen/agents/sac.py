@@ -12,6 +12,11 @@ actions come from a Gaussian whose mean is shifted, by at most ``sqrt(2 * delta)
 policy covariance's norm, along the gradient of the critics' upper bound
 ``Q_UB = mean(Q1, Q2) + beta_ub * |Q1 - Q2| / 2`` taken at the policy mean (pre-tanh).
 Training is plain SAC.
+
+``ent_coef_min`` puts a floor under the learned temperature. In the first PushDoorNav runs it
+fell from 0.1 to 0.006 while the critic's Q for the policy's own actions rose to about 3x the
+observed returns; the policy then collapsed onto a few subgoals, some of which found no plan.
+0 (the default) is SB3's behaviour.
 """
 
 from __future__ import annotations
@@ -58,7 +63,10 @@ def _q_from_features(critic, features: th.Tensor, actions: th.Tensor) -> list[th
 class SharedEncoderSAC(SAC):
     """SB3 SAC whose gradient step encodes each observation batch once (see module doc)."""
 
-    def __init__(self, policy=SharedEncoderSACPolicy, *args: Any, **kwargs: Any):
+    def __init__(self, policy=SharedEncoderSACPolicy, *args: Any, ent_coef_min: float = 0.0, **kwargs: Any):
+        if ent_coef_min < 0:
+            raise ValueError(f"ent_coef_min must be >= 0, got {ent_coef_min}")
+        self.ent_coef_min = ent_coef_min
         super().__init__(policy, *args, **kwargs)
 
     def train(self, gradient_steps: int, batch_size: int = 64) -> None:
@@ -114,6 +122,10 @@ class SharedEncoderSAC(SAC):
         self.ent_coef_optimizer.zero_grad()
         loss.backward()
         self.ent_coef_optimizer.step()
+        if self.ent_coef_min > 0:
+            with th.no_grad():  # clamp the parameter too, so it can rise again at once
+                self.log_ent_coef.clamp_(min=float(np.log(self.ent_coef_min)))
+            ent_coef = ent_coef.clamp(min=self.ent_coef_min)
         logs["ent_coef"].append(ent_coef.item())
         logs["ent_coef_loss"].append(loss.item())
         return ent_coef

@@ -45,6 +45,7 @@ class AlgoConfig(_Strict):
     net_arch: list[int] = Field(default_factory=lambda: [256, 256])
     # SAC family: the entropy temperature is learned, starting here (SB3's "auto" starts at 1.0)
     ent_coef_init: float = Field(1.0, gt=0)
+    ent_coef_min: float = Field(0.0, ge=0)  # floor under the learned temperature; 0 = none (SB3)
     beta_ub: float | None = None  # OAC only
     delta: float | None = None  # OAC only
     # DQN (relmogen-d) only

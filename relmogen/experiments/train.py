@@ -74,6 +74,7 @@ def build_model(config: TrainConfig, env):
                   batch_size=params.batch_size, tau=params.tau, gamma=params.gamma,
                   learning_starts=params.learning_starts, train_freq=params.train_freq,
                   gradient_steps=params.gradient_steps, ent_coef=f"auto_{params.ent_coef_init}",
+                  ent_coef_min=params.ent_coef_min,
                   policy_kwargs=policy_kwargs, seed=config.seed,
                   device=resolve_device(config.device), verbose=0)
     if config.algo == "oac":
