@@ -79,7 +79,7 @@ def _state(run_dir: Path) -> dict:
     return json.loads((checkpoint / "state.json").read_text()) if checkpoint is not None else {}
 
 
-CURVE_KEYS = ("episode", "success", "return", "wall_time_s", "base_fraction")
+CURVE_KEYS = ("episode", "success", "return", "wall_time_s", "base_fraction", "closed_10")
 
 
 def _number(text: str | None) -> float:
@@ -172,6 +172,11 @@ def _mean_and_std(runs: list[dict], key: str, axis_key: str) -> tuple[np.ndarray
         return grid, np.nanmean(values, axis=0), np.nanstd(values, axis=0)
 
 
+def _counts_items(runs: list[dict]) -> bool:
+    """Runs of a task scored by items closed (logged per episode since that column exists)."""
+    return any(np.isfinite(r["curve"]["closed_10"]).any() for r in runs)
+
+
 def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
     """Per task: success rate and return against episodes (the paper's x-axis) and return
     against wall-clock hours (the equal-budget comparison); mean and std over seeds."""
@@ -182,6 +187,8 @@ def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
             if group_task != task:
                 continue
             for row, (key, axis_key, ylabel, xlabel) in enumerate(PANELS):
+                if key == "success" and _counts_items(runs):
+                    key, ylabel = "closed_10", "items closed (10 deg / 10 cm)"
                 grid, mean, std = _mean_and_std(runs, key, axis_key)
                 ax = axes[row, column]
                 ax.plot(grid, mean, label=f"{algo} ({len(runs)} seeds)")

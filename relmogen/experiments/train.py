@@ -35,7 +35,8 @@ from relmogen.experiments.config import TrainConfig, read_config, save_config
 CHECKPOINTS = "checkpoints"
 LATEST = "latest"  # a file naming the newest complete checkpoint folder
 EPISODE_FIELDS = ["episode", "timesteps", "wall_time_s", "return", "length", "success",
-                  "base_fraction", "subgoal_success"]  # the last two: subgoal controls only
+                  "base_fraction", "subgoal_success",  # subgoal controls only
+                  "closed_10"]  # tasks that count closed items (ArrangeKitchenMM)
 SUCCESS_WINDOW = 20
 
 
@@ -215,6 +216,8 @@ class TrainingMonitor(BaseCallback):
         if subgoals:
             row["base_fraction"] = round(float(np.mean([base for base, _ in subgoals])), 4)
             row["subgoal_success"] = round(float(np.mean([found for _, found in subgoals])), 4)
+        if "closed_10" in info.get("metrics", {}):
+            row["closed_10"] = info["metrics"]["closed_10"]
         self.csv.writerow(row)
         self.csv_file.flush()
         self._log_scalars(episode, row, sps)
@@ -244,7 +247,7 @@ class TrainingMonitor(BaseCallback):
         self.writer.add_scalar("charts/success_rate", float(np.mean(self.successes)), episode)
         self.writer.add_scalar("charts/SPS", sps, episode)
         self.writer.add_scalar("charts/timesteps", self.model.num_timesteps, episode)
-        for key in ("base_fraction", "subgoal_success"):
+        for key in ("base_fraction", "subgoal_success", "closed_10"):
             if key in row:
                 self.writer.add_scalar(f"charts/{key}", row[key], episode)
         for key, value in self.model.logger.name_to_value.items():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from relmogen.experiments.config import resolve_config, save_config
-from relmogen.experiments.report import final_evaluation, write_report
+from relmogen.experiments.report import _counts_items, final_evaluation, read_curve, write_report
 
 
 def fake_run(root, algo, seed, success_rate, spl):
@@ -71,3 +71,13 @@ def test_every_evaluation_setting_gets_a_row(tmp_path):
     table = write_report(runs, tmp_path / "report")["markdown"]
     swap = next(line for line in table.splitlines() if "lazy_prm" in line)
     assert "| 2 | 0.30 / 0.10 / 0.40 |" in swap
+
+
+def test_curves_show_items_closed_for_tasks_that_count_them(tmp_path):
+    navigation = fake_run(tmp_path, "relmogen-r", 0, 0.5, 0.4)
+    assert not _counts_items([{"curve": read_curve(navigation / "episodes.csv")}])
+    kitchen = tmp_path / "kitchen.csv"
+    kitchen.write_text("episode,return,success,closed_10\n1,0.5,0,1\n2,0.7,0,3\n")
+    curve = read_curve(kitchen)
+    np.testing.assert_array_equal(curve["closed_10"], [1, 3])
+    assert _counts_items([{"curve": curve}])

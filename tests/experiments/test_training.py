@@ -41,6 +41,7 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
         assert all(0.0 <= float(share) <= 1.0 for share in shares)
     else:
         assert set(shares) == {""}
+    assert {row["closed_10"] for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))} == {""}
     state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
     assert state["episodes"] == episodes and state["timesteps"] >= episodes
     assert (latest_checkpoint(run_dir) / "replay_buffer.pkl").is_file()
@@ -66,6 +67,16 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
         assert len(figures) == 1 and imageio.imread(figures[0]).shape[0] > 100
     else:
         assert_exported_actor_acts_like_the_model(run_dir, tmp_path / "shipped")
+
+
+def test_tasks_that_count_items_log_items_closed_per_episode(tmp_path):
+    config = resolve_config("ArrangeKitchenMM", "relmogen-d", seed=0, preset="tiny", episodes=2,
+                            overrides=["env.episode_steps=3"])
+    run_dir = train(config, tmp_path, quiet=True)
+    closed = [float(row["closed_10"]) for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))]
+    assert len(closed) == 2 and all(0 <= count <= 8 for count in closed)
+    scalars = EventAccumulator(str(run_dir / "tb")).Reload().Scalars("charts/closed_10")
+    assert [event.value for event in scalars] == closed
 
 
 def assert_exported_actor_acts_like_the_model(run_dir: Path, out: Path):
