@@ -213,7 +213,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--scene", default=None, help="A or B (or a full scene name)")
     evaluate.add_argument("--device", default="auto")
     evaluate.add_argument("--stochastic", action="store_true",
-                          help="sample SGP-R/SAC actions instead of the deterministic mean")
+                          help="sample SGP-R/SAC actions instead of the deterministic mean; "
+                               "SGP-D acts epsilon-greedy at its final training epsilon")
     evaluate.add_argument("--json", action="store_true")
     evaluate.set_defaults(func=cmd_eval)
 

@@ -1,8 +1,10 @@
 """``relmogen eval``: a trained policy, deterministic, with the task metrics and MG statistics.
 
-``stochastic=True`` samples SGP-R / SAC actions from the policy instead: a deterministic
-subgoal policy whose subgoal finds no plan sees the same observation again (the step was a
-no-op) and repeats it until the episode ends, so both figures are worth reporting.
+``stochastic=True`` samples SGP-R / SAC actions from the policy instead, and makes SGP-D
+epsilon-greedy at its final training epsilon (the usual DQN evaluation, e.g. epsilon 0.05 on
+Atari): a deterministic subgoal policy whose subgoal finds no plan sees the same observation
+again (the step was a no-op) and repeats it until the episode ends, so both figures are worth
+reporting. Action sampling is seeded from ``seed``.
 
 The planners, arm collision checking and scene can differ from training: that is how the
 paper's planner-swap (Table II) and scene-transfer results are measured.
@@ -13,6 +15,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import torch as th
 
 from relmogen.agents.dqn import env_policy
@@ -29,8 +32,10 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
+    np.random.seed(seed)  # SGP-D's epsilon coin
+    th.manual_seed(seed)  # SAC's action samples
     if config.algo == "relmogen-d":
-        act = env_policy(model, env)  # greedy over the free base cells only
+        act = env_policy(model, env, deterministic=not stochastic)  # over the free base cells only
     else:
         act = lambda obs: model.predict(obs, deterministic=not stochastic)[0]  # noqa: E731
     try:
@@ -38,7 +43,9 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     finally:
         env.close()
     settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name,
-                "policy": "stochastic" if stochastic and config.algo != "relmogen-d" else "deterministic"}
+                "policy": "stochastic" if stochastic else "deterministic"}
+    if stochastic and config.algo == "relmogen-d":
+        settings["epsilon"] = float(model.exploration_rate)
     if config.control != "joint":
         settings.update(base_planner=base_planner or config.env.base_planner,
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)

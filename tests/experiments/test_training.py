@@ -58,9 +58,10 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
     assert result["policy"] == "deterministic"
-    if algo != "relmogen-d":  # SGP-R / SAC can also be evaluated with sampled actions
-        sampled = evaluate_path(run_dir, episodes=1, quiet=True, stochastic=True)
-        assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic.json"))
+    sampled = evaluate_path(run_dir, episodes=1, quiet=True, stochastic=True)  # sampled / epsilon-greedy
+    assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic.json"))
+    if algo == "relmogen-d":
+        assert 0.0 < sampled["epsilon"] <= 1.0
     assert list((run_dir / "eval").glob("*.json"))
     if algo == "relmogen-d":
         figures = q_map_figures_for_checkpoint(run_dir, tmp_path / "qmap", states=1)
