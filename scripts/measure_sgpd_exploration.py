@@ -19,6 +19,7 @@ import torch as th
 from relmogen.agents.dqn import PUSH_BINS, YAW_BINS, allowed_actions, map_side, sample_allowed
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.rollout import aggregate, run_episodes
+from relmogen.tasks import task_class
 
 
 def part_coin(allowed: np.ndarray, q: int) -> np.ndarray:
@@ -27,8 +28,8 @@ def part_coin(allowed: np.ndarray, q: int) -> np.ndarray:
     base_end = YAW_BINS * q * q
     restricted = allowed.copy()
     for row in restricted:
-        base_first = np.random.rand() < 0.5
-        chosen, other = (slice(0, base_end), slice(base_end, None))[:: 1 if base_first else -1]
+        base, arm = slice(0, base_end), slice(base_end, None)
+        chosen, other = (base, arm) if np.random.rand() < 0.5 else (arm, base)
         if row[chosen].any():
             row[other] = False
     return sample_allowed(restricted)
@@ -43,12 +44,12 @@ def main() -> None:
     args = parser.parse_args()
     np.random.seed(0)
     env = RelmogenEnv(task=args.task, control="subgoal-d", image_size=args.image_size)
-    q = map_side(env.action_space.n)
+    q, parts = map_side(env.action_space.n), task_class(args.task).subgoal_parts
     assert env.action_space.n == (YAW_BINS + PUSH_BINS) * q * q
 
     def act(_obs):
         mask = th.as_tensor(env.unwrapped.control.extra_info()["base_mask"][None])
-        allowed = allowed_actions(mask).numpy()
+        allowed = allowed_actions(mask, parts).numpy()
         return int((sample_allowed(allowed) if args.sampler == "uniform" else part_coin(allowed, q))[0])
 
     try:

@@ -12,8 +12,10 @@ paper's planner-swap (Table II) and scene-transfer results are measured.
 
 from __future__ import annotations
 
+import contextlib
 import json
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 import torch as th
@@ -26,20 +28,34 @@ from relmogen.tasks import task_class
 from relmogen.experiments.train import env_kwargs, latest_checkpoint, model_class, resolve_device
 
 
+@contextlib.contextmanager
+def seeded_action_sampling(seed: int) -> Iterator[None]:
+    """Seeds the generators actions are sampled from (numpy: SGP-D's epsilon coin; torch: SAC's
+    samples) and restores them afterwards, so an evaluation during training leaves the
+    training's exploration stream as it was."""
+    numpy_state = np.random.get_state()
+    with th.random.fork_rng(devices=[]):
+        np.random.seed(seed)
+        th.manual_seed(seed)
+        try:
+            yield
+        finally:
+            np.random.set_state(numpy_state)
+
+
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                    quiet: bool = False, stochastic: bool = False) -> dict:
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
-    np.random.seed(seed)  # SGP-D's epsilon coin
-    th.manual_seed(seed)  # SAC's action samples
     if config.algo == "relmogen-d":
         act = env_policy(model, env, deterministic=not stochastic)  # over the free base cells only
     else:
         act = lambda obs: model.predict(obs, deterministic=not stochastic)[0]  # noqa: E731
     try:
-        records = run_episodes(env, act, episodes, seed, quiet, description=f"eval {config.task}")
+        with seeded_action_sampling(seed):
+            records = run_episodes(env, act, episodes, seed, quiet, description=f"eval {config.task}")
     finally:
         env.close()
     settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name,

@@ -186,8 +186,9 @@ def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
         for (group_task, algo), runs in sorted(groups.items()):
             if group_task != task:
                 continue
+            counts_items = _counts_items(runs)
             for row, (key, axis_key, ylabel, xlabel) in enumerate(PANELS):
-                if key == "success" and _counts_items(runs):
+                if key == "success" and counts_items:
                     key, ylabel = "closed_10", "items closed (10 deg / 10 cm)"
                 grid, mean, std = _mean_and_std(runs, key, axis_key)
                 ax = axes[row, column]
