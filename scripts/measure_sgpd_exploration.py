@@ -16,7 +16,7 @@ import json
 import numpy as np
 import torch as th
 
-from relmogen.agents.dqn import PUSH_BINS, YAW_BINS, allowed_actions, map_side, sample_allowed
+from relmogen.agents.dqn import PUSH_BINS, YAW_BINS, allowed_actions, info_masks, map_side, sample_allowed
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
@@ -41,6 +41,8 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=30)
     parser.add_argument("--sampler", choices=("uniform", "part-coin"), default="uniform")
     parser.add_argument("--image-size", type=int, default=64)
+    parser.add_argument("--mask-arm", action=argparse.BooleanOptionalAction, default=True,
+                        help="sample only arm pixels with depth within the arm's reach (relmogen-d's default)")
     args = parser.parse_args()
     np.random.seed(0)
     env = RelmogenEnv(task=args.task, control="subgoal-d", image_size=args.image_size)
@@ -48,15 +50,17 @@ def main() -> None:
     assert env.action_space.n == (YAW_BINS + PUSH_BINS) * q * q
 
     def act(_obs):
-        mask = th.as_tensor(env.unwrapped.control.extra_info()["base_mask"][None])
-        allowed = allowed_actions(mask, parts).numpy()
+        masks = info_masks(env.unwrapped.control.extra_info(), q)
+        if not args.mask_arm:
+            masks[1] = True
+        allowed = allowed_actions(th.as_tensor(masks[None]), parts).numpy()
         return int((sample_allowed(allowed) if args.sampler == "uniform" else part_coin(allowed, q))[0])
 
     try:
         records = run_episodes(env, act, args.episodes, seed=100_000, quiet=True)
     finally:
         env.close()
-    print(json.dumps({"task": args.task, "sampler": args.sampler, **aggregate(records)}))
+    print(json.dumps({"task": args.task, "sampler": args.sampler, "mask_arm": args.mask_arm, **aggregate(records)}))
 
 
 if __name__ == "__main__":

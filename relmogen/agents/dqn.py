@@ -7,21 +7,24 @@
     Huber loss, gradient-norm clip 10, hard target update every 1024 steps (``tau = 1``),
     epsilon from 0.8 to 0.04 (the paper's hyperparameters are the defaults), linearly over
     ``exploration_steps`` environment steps when given;
-  * base masking: base actions whose cell is occupied (``info["base_mask"]`` False) are
+  * action masking: base actions whose cell is occupied (``info["base_mask"]`` False) are
     never chosen, neither greedily (Q set to -inf) nor at random (uniform over the allowed
     actions), nor as the online argmax of the Double DQN target (the replay buffer keeps the
-    next state's mask). Actions of a part the task does not use (``subgoal_parts``) are
-    masked the same way.
+    next state's masks); the original masked these. With ``mask_arm`` (default; our
+    addition) arm actions whose pixel has no depth or lies beyond the arm's reach
+    (``info["arm_mask"]`` False, a push that never finds a plan) are masked the same way.
+    Actions of a part the task does not use (``subgoal_parts``) are masked too.
 
-The mask is not part of the observation: ``BaseMaskTracker``, a ``VecEnvWrapper`` that
-``RelmogenDQN`` puts around every environment it is given (``_wrap_env``), records the latest
-``base_mask`` of each sub-environment from the step infos, or from the VecEnv's
-``reset_infos`` after a (auto-)reset. ``predict(obs, base_mask=...)`` takes masks explicitly
-(without one every base cell is allowed); ``env_policy(model, env)`` reads them from a single
+Masks are (N, 2, Q, Q) bool arrays, channel 0 base cells and channel 1 arm cells. They are
+not part of the observation: ``CellMaskTracker``, a ``VecEnvWrapper`` that ``RelmogenDQN``
+puts around every environment it is given (``_wrap_env``), records the latest masks of each
+sub-environment from the step infos, or from the VecEnv's ``reset_infos`` after a
+(auto-)reset. ``predict(obs, masks=...)`` takes masks explicitly (without them every action
+of the used parts is allowed); ``env_policy(model, env)`` reads them from a single
 environment for evaluation.
 
-``QMapReplayBuffer`` stores depth as float16 (<= 3 m: step <= 2 mm) and the next state's base
-mask; SB3's ``optimize_memory_usage`` is not available for Dict observations.
+``QMapReplayBuffer`` stores depth as float16 (<= 3 m: step <= 2 mm) and the next state's
+masks; SB3's ``optimize_memory_usage`` is not available for Dict observations.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
 ALL_PARTS = ("base", "arm")
+MASK_KEYS = ("base_mask", "arm_mask")  # info keys of the (Q, Q) cell masks, in channel order
 
 
 def map_side(n_actions: int) -> int:
@@ -55,20 +59,22 @@ def map_side(n_actions: int) -> int:
 
 
 # ------------------------------------------------------------------------- masks
-def allowed_actions(base_masks: th.Tensor, parts: tuple[str, ...] = ALL_PARTS) -> th.Tensor:
-    """(N, Q, Q) bool free base cells -> (N, (L + K) * Q * Q) bool allowed actions.
+def allowed_actions(masks: th.Tensor, parts: tuple[str, ...] = ALL_PARTS) -> th.Tensor:
+    """(N, 2, Q, Q) bool base/arm cell masks -> (N, (L + K) * Q * Q) bool allowed actions.
 
-    Base actions are allowed where the cell is free (every yaw bin), arm actions everywhere;
-    a part not in ``parts`` is disallowed. A row left with nothing allowed (no free cell in a
-    base-only task) falls back to every action of the used parts.
+    Base actions are allowed where the base cell is allowed (every yaw bin), arm actions where
+    the arm cell is (every push direction); a part not in ``parts`` is disallowed. A row left
+    with nothing allowed (no free cell in a base-only task) falls back to every action of the
+    used parts.
     """
-    n, q = base_masks.shape[0], base_masks.shape[-1]
-    base = base_masks.reshape(n, 1, q * q).expand(n, YAW_BINS, q * q).reshape(n, -1) & ("base" in parts)
-    arm = th.full((n, PUSH_BINS * q * q), "arm" in parts, dtype=th.bool, device=base_masks.device)
+    n, q = masks.shape[0], masks.shape[-1]
+    base = masks[:, 0].reshape(n, 1, q * q).expand(n, YAW_BINS, q * q).reshape(n, -1) & ("base" in parts)
+    arm = masks[:, 1].reshape(n, 1, q * q).expand(n, PUSH_BINS, q * q).reshape(n, -1) & ("arm" in parts)
     allowed = th.cat([base, arm], dim=1)
     empty = ~allowed.any(dim=1)
     if empty.any():
-        allowed[empty, : YAW_BINS * q * q] = "base" in parts
+        allowed[empty] = th.cat([th.full((YAW_BINS * q * q,), "base" in parts, device=masks.device),
+                                 th.full((PUSH_BINS * q * q,), "arm" in parts, device=masks.device)])
     return allowed
 
 
@@ -82,42 +88,46 @@ def sample_allowed(allowed: np.ndarray) -> np.ndarray:
     return np.array([np.random.choice(np.flatnonzero(row)) for row in allowed], dtype=np.int64)
 
 
+def info_masks(info: dict, q: int) -> np.ndarray:
+    """(2, Q, Q) bool base/arm cell masks of one info dict; all allowed where a mask is absent."""
+    return np.stack([np.asarray(info.get(key, np.ones((q, q), bool)), dtype=bool) for key in MASK_KEYS])
+
+
 def masks_from_infos(infos, q: int) -> np.ndarray:
-    """(N, Q, Q) bool from a list of info dicts; all free where an info has no ``base_mask``."""
-    return np.stack([np.asarray(info.get("base_mask", np.ones((q, q), bool)), dtype=bool) for info in infos])
+    """(N, 2, Q, Q) bool from a list of info dicts."""
+    return np.stack([info_masks(info, q) for info in infos])
 
 
-class BaseMaskTracker(VecEnvWrapper):
-    """Records ``base_masks`` (n_envs, Q, Q): each sub-environment's latest ``info["base_mask"]``."""
+class CellMaskTracker(VecEnvWrapper):
+    """Records ``masks`` (n_envs, 2, Q, Q): each sub-environment's latest base and arm cell masks."""
 
     def __init__(self, venv: VecEnv):
         super().__init__(venv)
         self.q = map_side(int(venv.action_space.n))
-        self.base_masks = np.ones((venv.num_envs, self.q, self.q), dtype=bool)
+        self.masks = np.ones((venv.num_envs, len(MASK_KEYS), self.q, self.q), dtype=bool)
 
     def reset(self):
         observations = self.venv.reset()
         self.reset_infos = self.venv.unwrapped.reset_infos
-        self.base_masks = masks_from_infos(self.reset_infos, self.q)
+        self.masks = masks_from_infos(self.reset_infos, self.q)
         return observations
 
     def step_wait(self):
         observations, rewards, dones, infos = self.venv.step_wait()
         self.reset_infos = self.venv.unwrapped.reset_infos
         for index, done in enumerate(dones):
-            source = self.reset_infos[index] if done else infos[index]
-            if "base_mask" in source:
-                self.base_masks[index] = source["base_mask"]
+            self.masks[index] = info_masks(self.reset_infos[index] if done else infos[index], self.q)
         return observations, rewards, dones, infos
 
 
 def env_policy(model: RelmogenDQN, env, deterministic: bool = True):
     """``obs -> action`` for a single (unvectorised) ``RelmogenEnv``, masked with its current
-    ``base_mask`` (read from ``env.unwrapped.control``), e.g. for ``rollout.run_episodes``."""
+    cell masks (read from ``env.unwrapped.control``), e.g. for ``rollout.run_episodes``."""
     control = env.unwrapped.control
 
     def act(obs):
-        return model.predict(obs, deterministic=deterministic, base_mask=control.extra_info()["base_mask"])[0]
+        masks = info_masks(control.extra_info(), model.q)
+        return model.predict(obs, deterministic=deterministic, masks=masks)[0]
 
     return act
 
@@ -169,11 +179,11 @@ class QMapReplaySamples(NamedTuple):
     dones: th.Tensor
     rewards: th.Tensor
     discounts: th.Tensor | None = None
-    next_base_masks: th.Tensor | None = None
+    next_masks: th.Tensor | None = None
 
 
 class QMapReplayBuffer(DictReplayBuffer):
-    """``DictReplayBuffer`` with float16 ``depth`` and the next state's base mask per transition."""
+    """``DictReplayBuffer`` with float16 ``depth`` and the next state's cell masks per transition."""
 
     def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Discrete,
                  *args: Any, **kwargs: Any):
@@ -182,16 +192,23 @@ class QMapReplayBuffer(DictReplayBuffer):
             if "depth" in store:
                 store["depth"] = np.zeros(store["depth"].shape, dtype=np.float16)
         q = map_side(int(action_space.n))
-        self.next_base_masks = np.ones((self.buffer_size, self.n_envs, q, q), dtype=bool)
+        self.next_masks = np.ones((self.buffer_size, self.n_envs, len(MASK_KEYS), q, q), dtype=bool)
+
+    def __setstate__(self, state: dict) -> None:
+        """Buffers saved before arm masks kept only base masks: their arm cells load as allowed."""
+        if "next_base_masks" in state:
+            base = state.pop("next_base_masks")
+            state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
+        self.__dict__.update(state)
 
     def add(self, obs, next_obs, action, reward, done, infos) -> None:
-        self.next_base_masks[self.pos] = masks_from_infos(infos, self.next_base_masks.shape[-1])
+        self.next_masks[self.pos] = masks_from_infos(infos, self.next_masks.shape[-1])
         super().add(obs, next_obs, action, reward, done, infos)
 
     def nbytes(self) -> int:
         """Bytes held by the stored arrays."""
         arrays = [*self.observations.values(), *self.next_observations.values(), self.actions, self.rewards,
-                  self.dones, self.timeouts, self.next_base_masks]
+                  self.dones, self.timeouts, self.next_masks]
         return int(sum(array.nbytes for array in arrays))
 
     def _batch(self, store: dict[str, np.ndarray], rows, envs, env) -> TensorDict:
@@ -209,21 +226,23 @@ class QMapReplayBuffer(DictReplayBuffer):
             next_observations=self._batch(self.next_observations, batch_inds, envs, env),
             dones=self.to_torch(dones).reshape(-1, 1),
             rewards=self.to_torch(rewards),
-            next_base_masks=self.to_torch(self.next_base_masks[batch_inds, envs]),
+            next_masks=self.to_torch(self.next_masks[batch_inds, envs]),
         )
 
 
 # --------------------------------------------------------------------- algorithm
 class RelmogenDQN(DQN):
-    """SB3 DQN + Double DQN targets + base-mask-aware exploration and greedy choice (module doc)."""
+    """SB3 DQN + Double DQN targets + mask-aware exploration and greedy choice (module doc)."""
 
     def __init__(self, policy=QMapDQNPolicy, env=None, *, subgoal_parts: tuple[str, ...] = ALL_PARTS,
+                 mask_arm: bool = True,
                  learning_rate: float = 2.5e-4, buffer_size: int = 10_000, batch_size: int = 512,
                  gamma: float = 0.99, target_update_interval: int = 1024, tau: float = 1.0,
                  max_grad_norm: float = 10.0, exploration_initial_eps: float = 0.8,
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
                  replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
+        self.mask_arm = bool(mask_arm)
         self.exploration_steps = exploration_steps
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
@@ -238,20 +257,27 @@ class RelmogenDQN(DQN):
     @staticmethod
     def _wrap_env(env, verbose: int = 0, monitor_wrapper: bool = True) -> VecEnv:
         env = DQN._wrap_env(env, verbose, monitor_wrapper)
-        return env if is_vecenv_wrapped(env, BaseMaskTracker) else BaseMaskTracker(env)
+        return env if is_vecenv_wrapped(env, CellMaskTracker) else CellMaskTracker(env)
 
     @property
     def q(self) -> int:
         return map_side(int(self.action_space.n))
 
-    def tracked_base_masks(self, n_envs: int) -> np.ndarray:
-        tracker = self.env if isinstance(self.env, BaseMaskTracker) else None
-        if tracker is None or tracker.base_masks.shape[0] != n_envs:
-            return np.ones((n_envs, self.q, self.q), dtype=bool)
-        return tracker.base_masks.copy()
+    def tracked_masks(self, n_envs: int) -> np.ndarray:
+        tracker = self.env if isinstance(self.env, CellMaskTracker) else None
+        if tracker is None or tracker.masks.shape[0] != n_envs:
+            return np.ones((n_envs, len(MASK_KEYS), self.q, self.q), dtype=bool)
+        return tracker.masks.copy()
 
-    def allowed(self, base_masks: np.ndarray | th.Tensor, n: int) -> th.Tensor:
-        masks = th.as_tensor(np.asarray(base_masks, dtype=bool), device=self.device).reshape(n, self.q, self.q)
+    def allowed(self, masks: np.ndarray | th.Tensor | None, n: int) -> th.Tensor:
+        """(N, (L + K) Q Q) allowed actions from (N, 2, Q, Q) masks (None: all cells allowed)."""
+        shape = (n, len(MASK_KEYS), self.q, self.q)
+        if masks is None:
+            masks = th.ones(shape, dtype=th.bool, device=self.device)
+        masks = th.as_tensor(masks, dtype=th.bool, device=self.device).reshape(shape)
+        if not self.mask_arm:
+            masks = masks.clone()
+            masks[:, 1] = True
         return allowed_actions(masks, self.subgoal_parts)
 
     # ---------------------------------------------------------------- acting
@@ -267,20 +293,19 @@ class RelmogenDQN(DQN):
             self.logger.record("rollout/exploration_rate", self.exploration_rate)
 
     def _sample_action(self, learning_starts: int, action_noise=None, n_envs: int = 1):
-        masks = self.tracked_base_masks(n_envs)
+        masks = self.tracked_masks(n_envs)
         if self.num_timesteps < learning_starts:
             action = sample_allowed(self.allowed(masks, n_envs).cpu().numpy())
         else:
-            action, _ = self.predict(self._last_obs, deterministic=False, base_mask=masks)
+            action, _ = self.predict(self._last_obs, deterministic=False, masks=masks)
         return action, action
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False,
-                base_mask: np.ndarray | None = None):
-        """Epsilon-greedy (one coin per observation) over allowed actions; ``base_mask`` (N, Q, Q) or (Q, Q)."""
+                masks: np.ndarray | None = None):
+        """Epsilon-greedy (one coin per observation) over allowed actions; ``masks`` (N, 2, Q, Q) or (2, Q, Q)."""
         self.policy.set_training_mode(False)
         obs, vectorized = self.policy.obs_to_tensor(observation)
         n = next(iter(obs.values())).shape[0]
-        masks = np.ones((n, self.q, self.q), dtype=bool) if base_mask is None else base_mask
         allowed = self.allowed(masks, n)
         explore = np.zeros(n, bool) if deterministic else np.random.rand(n) < self.exploration_rate
         actions = np.empty(n, dtype=np.int64)
@@ -296,10 +321,8 @@ class RelmogenDQN(DQN):
         """r + gamma (1 - done) Q_target(s', argmax_a' Q_online(s', a')), argmax over allowed a'."""
         with th.no_grad():
             online = self.q_net(data.next_observations)
-            masks = getattr(data, "next_base_masks", None)
-            if masks is None:
-                masks = th.ones((online.shape[0], self.q, self.q), dtype=th.bool, device=online.device)
-            best = masked_argmax(online, allowed_actions(masks, self.subgoal_parts)).reshape(-1, 1)
+            best = masked_argmax(online, self.allowed(getattr(data, "next_masks", None), online.shape[0]))
+            best = best.reshape(-1, 1)
             next_q = self.q_net_target(data.next_observations).gather(1, best)
             discounts = data.discounts if data.discounts is not None else self.gamma
             return data.rewards + (1 - data.dones) * discounts * next_q

@@ -16,7 +16,9 @@
     The observation adds ``local_map`` (S, S, C) uint8: channel 0 the occupancy map
     (FREE 0 / UNKNOWN 128 / OCCUPIED 255), and for navigation tasks channel 1 with the goal
     (255) and the shortest-path waypoints (128) drawn on it. ``info["base_mask"]`` is a
-    (Q, Q) bool array of base cells where the robot's footprint is free on the map.
+    (Q, Q) bool array of base cells where the robot's footprint is free on the map;
+    ``info["arm_mask"]`` a (Q, Q) bool array of arm cells whose pixel has depth and sees a point
+    within the robot's ``arm_reach`` of its first arm joint (beyond it no plan is ever found).
 
 Rewards are the sum of the low-level (0.1 s) rewards accrued while the subgoal executed.
 When no plan is found the step is a no-op: nothing moves, the reward is 0, and it counts.
@@ -150,6 +152,7 @@ class SubgoalDControl(SubgoalControl):
         self.action_space = spaces.Discrete(self.num_base + PUSH_BINS * self.q * self.q)
         self.map_channels = 2 if env.task.has_map_marks else 1
         self._base_mask = np.ones((self.q, self.q), dtype=bool)
+        self._arm_mask = np.ones((self.q, self.q), dtype=bool)
 
     # ------------------------------------------------------------------- index mapping
     def decode(self, index: int) -> tuple[str, int, int, int]:
@@ -197,6 +200,7 @@ class SubgoalDControl(SubgoalControl):
     def extra_observation(self) -> dict[str, np.ndarray]:
         ranges = self.env.scan()
         self._base_mask = self._free_cells(self.mg.local_map(ranges))
+        self._arm_mask = self._reachable_cells()
         obs_map = self.mg.local_map(ranges, resolution=5.0 / self.map_pixels)
         channels = [obs_map.grid]
         if self.map_channels == 2:
@@ -208,7 +212,15 @@ class SubgoalDControl(SubgoalControl):
         return {"local_map": spaces.Box(0, 255, shape, np.uint8)}
 
     def extra_info(self) -> dict[str, np.ndarray]:
-        return {"base_mask": self._base_mask.copy()}
+        return {"base_mask": self._base_mask.copy(), "arm_mask": self._arm_mask.copy()}
+
+    def _reachable_cells(self) -> np.ndarray:
+        """Q x Q arm cells whose pixel sees a point within the arm's reach."""
+        centres = Q_DOWNSAMPLE * np.arange(self.q) + Q_DOWNSAMPLE // 2
+        rows, cols = np.meshgrid(centres, centres, indexing="ij")
+        points, has_depth = self.env.camera.pixels_to_world(self.env.last_frame, cols, rows)
+        distance = np.linalg.norm(points - self.env.robot.arm_base_position(), axis=-1)
+        return has_depth & (np.nan_to_num(distance, nan=np.inf) <= self.env.robot.spec.arm_reach)
 
     def _free_cells(self, local_map) -> np.ndarray:
         """Q x Q cells whose centre leaves the footprint clear of obstacles on ``local_map``."""

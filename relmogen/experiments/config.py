@@ -54,6 +54,7 @@ class AlgoConfig(_Strict):
     exploration_initial_eps: float | None = Field(None, ge=0, le=1)
     exploration_final_eps: float | None = Field(None, ge=0, le=1)
     exploration_steps: int | None = Field(None, ge=1)  # linear epsilon decay length (our choice)
+    mask_arm: bool | None = None  # mask arm pixels without depth or beyond reach (default on; our choice)
     qmap_widths: list[int] | None = None
     qmap_head_width: int | None = None
 

@@ -180,6 +180,10 @@ class Robot:
             pos, orn = state[4], state[5]
         return np.array(pos), np.array(orn)
 
+    def arm_base_position(self) -> np.ndarray:
+        """World position of the first arm joint's link (where ``spec.arm_reach`` is measured from)."""
+        return self.link_pose(self.joint_indices[self.spec.arm_joints[0]])[0]
+
     def end_effector_position(self) -> np.ndarray:
         return self.link_pose(self.end_effector_link_index)[0]
 

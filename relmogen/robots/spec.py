@@ -62,6 +62,7 @@ class EmbodimentSpec:
     caster_links: tuple[str, ...]
     wheel_friction: float
     base_radius: float
+    arm_reach: float  # metres from the first arm joint's link beyond which no arm subgoal is planned
     default_torso: float
     default_arm_pose: tuple[float, ...]
     head_tilt_navigation: float
@@ -139,6 +140,7 @@ def _build_spec(raw: dict[str, Any], spec_dir: Path) -> EmbodimentSpec:
         caster_links=_names(raw, "caster_links"),
         wheel_friction=_positive(raw, "wheel_friction"),
         base_radius=_positive(raw, "base_radius"),
+        arm_reach=_positive(raw, "arm_reach"),
         default_torso=_float(raw, "default_torso"),
         default_arm_pose=_floats(raw, "default_arm_pose", len(arm)),
         head_tilt_navigation=_float(raw, "head_tilt_navigation"),

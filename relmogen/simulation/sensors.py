@@ -138,6 +138,16 @@ class Camera:
         local = self.intrinsics.deproject(u, v, float(frame.depth[v, u]))
         return frame.position + frame.rotation @ local
 
+    def pixels_to_world(self, frame: CameraFrame, us: np.ndarray, vs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World points seen at integer pixel arrays ``us``, ``vs`` (same shape S) -> (S + (3,)) points
+        and an S bool array of pixels with depth (points there are NaN)."""
+        k = self.intrinsics
+        depth = frame.depth[vs, us].astype(np.float64)
+        valid = depth > INVALID_DEPTH
+        depth = np.where(valid, depth, np.nan)
+        local = np.stack([depth, -(us + 0.5 - k.cx) / k.fx * depth, -(vs + 0.5 - k.cy) / k.fy * depth], axis=-1)
+        return frame.position + local @ frame.rotation.T, valid
+
 
 class Lidar:
     """A single-plane scanner evaluated with one ``rayTestBatch`` call."""

@@ -26,6 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch as th  # noqa: E402
 
+from relmogen.agents.dqn import info_masks  # noqa: E402
 from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
 from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS  # noqa: E402
 
@@ -35,12 +36,12 @@ ARROW_CELLS = 2.5  # arrow length in Q-map cells
 
 @dataclass
 class QMapState:
-    """Everything one figure shows: observation, Q maps, the base mask and the greedy choice."""
+    """Everything one figure shows: observation, Q maps, the cell masks and the greedy choice."""
 
     rgb: np.ndarray  # (S, S, 3) uint8
     local_map: np.ndarray  # (S, S, C) uint8, row = robot x (forward), column = robot y (left)
     q_maps: np.ndarray  # (L + K, Q, Q)
-    base_mask: np.ndarray  # (Q, Q) bool
+    masks: np.ndarray  # (2, Q, Q) bool: cells the policy may choose, base then arm
     parts: tuple[str, ...]
     choice: tuple[str, int, int, int]  # (part, bin, i, j)
     step: int
@@ -48,12 +49,14 @@ class QMapState:
 
 def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
     control = env.unwrapped.control
-    base_mask = control.extra_info()["base_mask"]
+    masks = info_masks(control.extra_info(), model.q)
+    if not model.mask_arm:
+        masks[1] = True
     tensor_obs, _ = model.policy.obs_to_tensor(obs)
     with th.no_grad():
         maps = model.policy.q_net.net.q_maps(tensor_obs)[0].cpu().numpy()
-    action = int(model.predict(obs, deterministic=True, base_mask=base_mask)[0])
-    return QMapState(obs["rgb"], obs["local_map"], maps, base_mask, tuple(model.subgoal_parts),
+    action = int(model.predict(obs, deterministic=True, masks=masks)[0])
+    return QMapState(obs["rgb"], obs["local_map"], maps, masks, tuple(model.subgoal_parts),
                      control.decode(action), step)
 
 
@@ -79,11 +82,12 @@ def _arrow(axis, row: float, col: float, angle: float, length: float) -> None:
 def _arm_panel(axis, state: QMapState) -> None:
     size = state.rgb.shape[0]
     axis.imshow(state.rgb)
-    arm = state.q_maps[YAW_BINS:].max(axis=0)
+    arm = np.where(state.masks[1], state.q_maps[YAW_BINS:].max(axis=0), np.nan)
     extent = (-0.5, size - 0.5, size - 0.5, -0.5)
     if "arm" in state.parts:
         axis.imshow(_normalised(arm), cmap="jet", alpha=OVERLAY_ALPHA, extent=extent, interpolation="nearest")
-        axis.set_title(f"arm Q (max over {PUSH_BINS} pushes), best {arm.max():.2f}", fontsize=9)
+        best = np.nanmax(arm) if np.isfinite(arm).any() else float("nan")
+        axis.set_title(f"arm Q (max over {PUSH_BINS} pushes, allowed cells), best {best:.2f}", fontsize=9)
     else:
         axis.set_title("arm subgoals not used by this task", fontsize=9)
     part, bin_, i, j = state.choice
@@ -96,7 +100,7 @@ def _arm_panel(axis, state: QMapState) -> None:
 
 def _base_panel(axis, state: QMapState) -> None:
     grid = state.local_map[..., 0].astype(float)
-    size, q = grid.shape[0], state.base_mask.shape[0]
+    size, q = grid.shape[0], state.masks.shape[-1]
     axis.imshow(_to_display(grid), cmap="gray_r", vmin=0, vmax=255)
     if state.local_map.shape[-1] > 1:
         marks = np.ma.masked_equal(_to_display(state.local_map[..., 1].astype(float)), 0)
@@ -104,7 +108,7 @@ def _base_panel(axis, state: QMapState) -> None:
     extent = (-0.5, size - 0.5, size - 0.5, -0.5)
     scale = size / q
     if "base" in state.parts:
-        base = np.where(state.base_mask, state.q_maps[:YAW_BINS].max(axis=0), np.nan)
+        base = np.where(state.masks[0], state.q_maps[:YAW_BINS].max(axis=0), np.nan)
         axis.imshow(_to_display(_normalised(base)), cmap="jet", alpha=OVERLAY_ALPHA, extent=extent,
                     interpolation="nearest")
         best = np.nanmax(base) if np.isfinite(base).any() else float("nan")

@@ -1,4 +1,4 @@
-"""SGP-D (``relmogen-d``): Q-map index layout, Double DQN targets, base masking, end to end."""
+"""SGP-D (``relmogen-d``): Q-map index layout, Double DQN targets, action masking, end to end."""
 
 import gymnasium as gym
 import numpy as np
@@ -8,7 +8,7 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from relmogen.agents.dqn import (
-    BaseMaskTracker,
+    CellMaskTracker,
     QMapReplayBuffer,
     QMapReplaySamples,
     RelmogenDQN,
@@ -17,7 +17,7 @@ from relmogen.agents.dqn import (
 )
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.envs.subgoal_controls import YAW_BINS
+from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
 SIZE = 64
 Q = SIZE // 4
@@ -52,10 +52,15 @@ def random_batch(space: spaces.Dict, n: int, seed: int = 0) -> dict[str, th.Tens
     return {key: th.as_tensor(np.stack([s[key] for s in samples])) for key in space.spaces}
 
 
-def few_free_cells(n: int, cells=((0, 0), (5, 9), (15, 15))) -> np.ndarray:
-    masks = np.zeros((n, Q, Q), dtype=bool)
+def few_free_cells(n: int, cells=((0, 0), (5, 9), (15, 15)), arm_cells=None) -> np.ndarray:
+    """(n, 2, Q, Q) masks: base allowed only at ``cells``; arm at ``arm_cells`` (None: everywhere)."""
+    masks = np.zeros((n, 2, Q, Q), dtype=bool)
     for i, j in cells:
-        masks[:, i, j] = True
+        masks[:, 0, i, j] = True
+    if arm_cells is None:
+        masks[:, 1] = True
+    for i, j in arm_cells or ():
+        masks[:, 1, i, j] = True
     return masks
 
 
@@ -104,12 +109,12 @@ def test_double_dqn_target_uses_online_argmax_and_target_value(model):
     for parameter in model.q_net_target.parameters():  # make the two nets differ
         parameter.data.normal_(0.0, 0.1)
     n = 6
-    masks = th.ones((n, Q, Q), dtype=th.bool)
-    masks[:3] = th.as_tensor(few_free_cells(3))
+    masks = th.ones((n, 2, Q, Q), dtype=th.bool)
+    masks[:3] = th.as_tensor(few_free_cells(3, arm_cells=((2, 3), (9, 9))))
     data = QMapReplaySamples(observations=random_batch(model.observation_space, n, seed=1), actions=th.zeros(n, 1),
                              next_observations=random_batch(model.observation_space, n, seed=2),
                              dones=th.tensor([[0.0], [1.0], [0.0], [0.0], [1.0], [0.0]]),
-                             rewards=th.arange(n, dtype=th.float32).reshape(-1, 1), next_base_masks=masks)
+                             rewards=th.arange(n, dtype=th.float32).reshape(-1, 1), next_masks=masks)
     with th.no_grad():
         online = model.q_net(data.next_observations)
         target_values = model.q_net_target(data.next_observations)
@@ -127,10 +132,12 @@ def test_double_dqn_target_uses_online_argmax_and_target_value(model):
 
 # ------------------------------------------------------------- (c) masked exploration
 def assert_base_actions_free(actions: np.ndarray, masks: np.ndarray) -> int:
+    """Every base action lies on an allowed base cell and every arm action on an allowed arm
+    cell of its row's (2, Q, Q) masks; returns the number of base actions."""
     base = actions < YAW_BINS * Q * Q
-    cells = actions[base] % (Q * Q)
-    rows = np.flatnonzero(base)
-    assert masks.reshape(len(actions), -1)[rows, cells].all()
+    part = (~base).astype(int)
+    cells = np.where(base, actions, actions - YAW_BINS * Q * Q) % (Q * Q)
+    assert masks.reshape(len(actions), 2, -1)[np.arange(len(actions)), part, cells].all()
     return int(base.sum())
 
 
@@ -139,12 +146,29 @@ def test_random_exploration_never_picks_an_occupied_cell(model):
     obs = {key: value.numpy() for key, value in random_batch(model.observation_space, n).items()}
     masks = few_free_cells(n)
     model.exploration_rate = 1.0
-    actions = np.concatenate([model.predict(obs, deterministic=False, base_mask=masks)[0] for _ in range(8)])
+    actions = np.concatenate([model.predict(obs, deterministic=False, masks=masks)[0] for _ in range(8)])
     base_count = assert_base_actions_free(actions, np.concatenate([masks] * 8))
     assert 0 < base_count < len(actions)  # both parts are explored (base: 36 of 3,108 allowed actions)
-    model.env.reset()  # the tracker now holds the reset infos' base masks
+    model.env.reset()  # the tracker now holds the reset infos' masks
     warmup = np.concatenate([model._sample_action(learning_starts=10**9, n_envs=1)[0] for _ in range(300)])
-    assert_base_actions_free(warmup, np.repeat(model.env.base_masks, 300, axis=0))
+    assert_base_actions_free(warmup, np.repeat(model.env.masks, 300, axis=0))
+
+
+def test_random_exploration_never_picks_an_unreachable_arm_cell(model):
+    n = 400
+    obs = {key: value.numpy() for key, value in random_batch(model.observation_space, n).items()}
+    masks = few_free_cells(n, cells=((4, 4),), arm_cells=((1, 2), (8, 8)))
+    model.exploration_rate = 1.0
+    actions, _ = model.predict(obs, deterministic=False, masks=masks)
+    base_count = assert_base_actions_free(actions, masks)
+    assert 0 < base_count < n  # 12 base and 24 arm actions allowed: both are drawn
+    model.mask_arm = False
+    try:
+        unmasked, _ = model.predict(obs, deterministic=False, masks=masks)
+    finally:
+        model.mask_arm = True
+    arm_cells = (unmasked[unmasked >= YAW_BINS * Q * Q] - YAW_BINS * Q * Q) % (Q * Q)
+    assert len(set(arm_cells.tolist())) > 2  # without arm masking every arm cell is allowed
 
 
 def test_greedy_choice_never_picks_an_occupied_cell(model):
@@ -157,23 +181,25 @@ def test_greedy_choice_never_picks_an_occupied_cell(model):
     masks = few_free_cells(n)
     model.exploration_rate = 0.0
     try:
-        actions, _ = model.predict(obs, deterministic=False, base_mask=masks)
+        actions, _ = model.predict(obs, deterministic=False, masks=masks)
         assert assert_base_actions_free(actions, masks) == n
         unmasked, _ = model.predict(obs, deterministic=True)
-        assert not (masks.reshape(n, -1)[np.arange(n), unmasked % (Q * Q)]).all()
+        assert not (masks[:, 0].reshape(n, -1)[np.arange(n), unmasked % (Q * Q)]).all()
     finally:
         with th.no_grad():
             head.bias.copy_(saved)
 
 
 def test_a_part_the_task_does_not_use_is_never_chosen(model):
-    masks = th.as_tensor(few_free_cells(2))
+    masks = th.as_tensor(few_free_cells(2, arm_cells=((3, 3),)))
     base_only = allowed_actions(masks, ("base",))
     assert base_only.sum(dim=1).tolist() == [YAW_BINS * 3] * 2
     arm_only = allowed_actions(masks, ("arm",))
-    assert not arm_only[:, : YAW_BINS * Q * Q].any() and arm_only[:, YAW_BINS * Q * Q:].all()
-    no_free = allowed_actions(th.zeros((1, Q, Q), dtype=th.bool), ("base",))
+    assert not arm_only[:, : YAW_BINS * Q * Q].any() and arm_only.sum(dim=1).tolist() == [PUSH_BINS] * 2
+    no_free = allowed_actions(th.zeros((1, 2, Q, Q), dtype=th.bool), ("base",))
     assert no_free[0, : YAW_BINS * Q * Q].all()  # nothing free: fall back to every base action
+    no_reach = allowed_actions(th.zeros((1, 2, Q, Q), dtype=th.bool), ("arm",))
+    assert no_reach[0, YAW_BINS * Q * Q:].all() and not no_reach[0, : YAW_BINS * Q * Q].any()
 
 
 # ------------------------------------------------------------------ replay memory
@@ -191,23 +217,24 @@ def test_replay_buffer_stores_depth_as_float16_and_fits_the_paper_buffer():
 
 # ------------------------------------------------------------------- (d) end to end
 class MaskAudit(gym.Wrapper):
-    """Counts base actions sent to an occupied cell according to the latest ``info["base_mask"]``."""
+    """Counts actions sent to a masked cell according to the latest ``info["base_mask"]`` and
+    ``info["arm_mask"]``."""
 
     def __init__(self, env, record: dict):
         super().__init__(env)
-        self.record, self.mask = record, None
+        self.record, self.masks = record, None
 
     def reset(self, **kwargs):
         obs, info = self.env.reset(**kwargs)
-        self.mask = info["base_mask"]
+        self.masks = info
         return obs, info
 
     def step(self, action):
         part, _, i, j = self.env.unwrapped.control.decode(int(action))
         self.record["steps"] = self.record.get("steps", 0) + 1
-        self.record["violations"] = self.record.get("violations", 0) + int(part == "base" and not self.mask[i, j])
+        self.record["violations"] = self.record.get("violations", 0) + int(not self.masks[f"{part}_mask"][i, j])
         obs, reward, terminated, truncated, info = self.env.step(action)
-        self.mask = info["base_mask"]
+        self.masks = info
         return obs, reward, terminated, truncated, info
 
 
@@ -220,7 +247,7 @@ def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
     model.learn(200)
     assert record == {"steps": 200, "violations": 0}
     assert model._n_updates == len(range(44, 201, 4)) and np.isfinite(model.logger.name_to_value["train/loss"])
-    assert isinstance(model.env, BaseMaskTracker) and model.replay_buffer.pos == 200
+    assert isinstance(model.env, CellMaskTracker) and model.replay_buffer.pos == 200
     assert model.exploration_rate == pytest.approx(0.04)  # decayed over exploration_steps=100
     model.save(tmp_path / "model.zip")
     model.save_replay_buffer(tmp_path / "replay.pkl")
@@ -230,7 +257,8 @@ def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
         assert th.equal(value, loaded.q_net.state_dict()[key])
     assert loaded.subgoal_parts == model.subgoal_parts and loaded.replay_buffer.pos == 200
     assert loaded.replay_buffer.observations["depth"].dtype == np.float16
-    np.testing.assert_array_equal(loaded.replay_buffer.next_base_masks, model.replay_buffer.next_base_masks)
+    np.testing.assert_array_equal(loaded.replay_buffer.next_masks, model.replay_buffer.next_masks)
+    assert not model.replay_buffer.next_masks[:200, :, 1].all()  # arm masks were recorded
     obs = venv.reset()
     np.testing.assert_array_equal(model.predict(obs, deterministic=True)[0], loaded.predict(obs, deterministic=True)[0])
     loaded.learn(20, reset_num_timesteps=False)

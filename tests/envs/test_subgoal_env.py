@@ -118,6 +118,26 @@ def test_goal_outside_the_window_or_in_a_wall_fails_at_once_with_a_reason(monkey
     env.close()
 
 
+def test_arm_mask_marks_pixels_with_depth_within_reach_and_masked_pushes_find_no_plan():
+    env = RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, arm_collision=False)
+    _, info = env.reset(seed=1)
+    control, frame = env.control, env.last_frame
+    shoulder, reach = env.robot.arm_base_position(), env.robot.spec.arm_reach
+    expected = np.zeros((control.q, control.q), dtype=bool)
+    for i in range(control.q):
+        for j in range(control.q):
+            row, col = 4 * i + 2, 4 * j + 2
+            if frame.depth[row, col] > 0:
+                expected[i, j] = np.linalg.norm(env.camera.pixel_to_world(frame, col, row) - shoulder) <= reach
+    np.testing.assert_array_equal(info["arm_mask"], expected)
+    far = [(int(i), int(j)) for i, j in np.argwhere(~expected) if frame.depth[4 * i + 2, 4 * j + 2] > 0]
+    assert far, "expected pixels beyond the arm's reach in a corridor view"
+    for i, j in far[:2]:
+        _, _, _, _, step_info = env.step(control.encode("arm", 0, i, j))
+        assert not step_info["plan_found"], step_info["reason"]
+    env.close()
+
+
 def open_direction_deg(env):
     """Bearing (deg, robot frame) of the longest LiDAR range: somewhere to drive to."""
     return float(np.rad2deg(env.lidar.angles[int(np.argmax(env.scan()))]))

@@ -34,12 +34,12 @@ def test_marked_choice_is_the_best_allowed_q_value(model_and_env):
     obs, _ = env.reset(seed=1)
     state = q_map_state(model, env, obs, step=0)
     part, bin_, i, j = state.choice
-    base = np.where(state.base_mask[None], state.q_maps[:YAW_BINS], -np.inf)
-    best = max(base.max(), state.q_maps[YAW_BINS:].max())
+    base = np.where(state.masks[0][None], state.q_maps[:YAW_BINS], -np.inf)
+    arm = np.where(state.masks[1][None], state.q_maps[YAW_BINS:], -np.inf)
+    best = max(base.max(), arm.max())
     chosen = state.q_maps[bin_ if part == "base" else YAW_BINS + bin_, i, j]
     assert chosen == pytest.approx(best, abs=1e-5)
-    if part == "base":
-        assert state.base_mask[i, j]
+    assert state.masks[0 if part == "base" else 1, i, j]
     assert state.rgb.shape == (SIZE, SIZE, 3) and state.local_map.shape[:2] == (SIZE, SIZE)
 
 
