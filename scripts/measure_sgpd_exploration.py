@@ -16,7 +16,8 @@ import json
 import numpy as np
 import torch as th
 
-from relmogen.agents.dqn import PUSH_BINS, YAW_BINS, allowed_actions, info_masks, map_side, sample_allowed
+from relmogen.agents.dqn import (PUSH_BINS, YAW_BINS, allowed_actions, info_masks, map_side, sample_allowed,
+                                 without_arm_mask)
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
@@ -51,8 +52,7 @@ def main() -> None:
 
     def act(_obs):
         masks = info_masks(env.unwrapped.control.extra_info(), q)
-        if not args.mask_arm:
-            masks[1] = True
+        masks = masks if args.mask_arm else without_arm_mask(masks)
         allowed = allowed_actions(th.as_tensor(masks[None]), parts).numpy()
         return int((sample_allowed(allowed) if args.sampler == "uniform" else part_coin(allowed, q))[0])
 

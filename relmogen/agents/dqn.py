@@ -88,6 +88,13 @@ def sample_allowed(allowed: np.ndarray) -> np.ndarray:
     return np.array([np.random.choice(np.flatnonzero(row)) for row in allowed], dtype=np.int64)
 
 
+def without_arm_mask(masks):
+    """A copy of (..., 2, Q, Q) masks (numpy or torch) with every arm cell allowed."""
+    masks = masks.clone() if th.is_tensor(masks) else np.array(masks, dtype=bool)
+    masks[..., 1, :, :] = True
+    return masks
+
+
 def info_masks(info: dict, q: int) -> np.ndarray:
     """(2, Q, Q) bool base/arm cell masks of one info dict; all allowed where a mask is absent."""
     return np.stack([np.asarray(info.get(key, np.ones((q, q), bool)), dtype=bool) for key in MASK_KEYS])
@@ -275,10 +282,7 @@ class RelmogenDQN(DQN):
         if masks is None:
             masks = th.ones(shape, dtype=th.bool, device=self.device)
         masks = th.as_tensor(masks, dtype=th.bool, device=self.device).reshape(shape)
-        if not self.mask_arm:
-            masks = masks.clone()
-            masks[:, 1] = True
-        return allowed_actions(masks, self.subgoal_parts)
+        return allowed_actions(masks if self.mask_arm else without_arm_mask(masks), self.subgoal_parts)
 
     # ---------------------------------------------------------------- acting
     def _on_step(self) -> None:

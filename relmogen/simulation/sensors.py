@@ -58,9 +58,13 @@ class CameraIntrinsics:
         """Pixel centre ``(u, v)`` at optical depth ``depth`` -> point in the camera link frame."""
         if not np.isfinite(depth) or depth <= INVALID_DEPTH:
             raise ValueError(f"pixel ({u}, {v}) has no valid depth ({depth})")
-        right = (u + 0.5 - self.cx) / self.fx * depth
-        down = (v + 0.5 - self.cy) / self.fy * depth
-        return np.array([depth, -right, -down])
+        return self.deproject_many(np.asarray(u), np.asarray(v), np.asarray(depth, dtype=np.float64))
+
+    def deproject_many(self, us: np.ndarray, vs: np.ndarray, depths: np.ndarray) -> np.ndarray:
+        """Arrays of pixel centres and depths (shape S) -> S + (3,) camera-frame points, unchecked."""
+        right = (us + 0.5 - self.cx) / self.fx * depths
+        down = (vs + 0.5 - self.cy) / self.fy * depths
+        return np.stack([depths, -right, -down], axis=-1)
 
     def project(self, point_camera: np.ndarray) -> tuple[float, float, float]:
         """Point in the camera link frame -> continuous pixel ``(u, v)`` and depth."""
@@ -141,11 +145,9 @@ class Camera:
     def pixels_to_world(self, frame: CameraFrame, us: np.ndarray, vs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World points seen at integer pixel arrays ``us``, ``vs`` (same shape S) -> (S + (3,)) points
         and an S bool array of pixels with depth (points there are NaN)."""
-        k = self.intrinsics
         depth = frame.depth[vs, us].astype(np.float64)
         valid = depth > INVALID_DEPTH
-        depth = np.where(valid, depth, np.nan)
-        local = np.stack([depth, -(us + 0.5 - k.cx) / k.fx * depth, -(vs + 0.5 - k.cy) / k.fy * depth], axis=-1)
+        local = self.intrinsics.deproject_many(us, vs, np.where(valid, depth, np.nan))
         return frame.position + local @ frame.rotation.T, valid
 
 

@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch as th  # noqa: E402
 
-from relmogen.agents.dqn import info_masks  # noqa: E402
+from relmogen.agents.dqn import info_masks, without_arm_mask  # noqa: E402
 from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
 from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS  # noqa: E402
 
@@ -50,8 +50,7 @@ class QMapState:
 def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
     control = env.unwrapped.control
     masks = info_masks(control.extra_info(), model.q)
-    if not model.mask_arm:
-        masks[1] = True
+    masks = masks if model.mask_arm else without_arm_mask(masks)
     tensor_obs, _ = model.policy.obs_to_tensor(obs)
     with th.no_grad():
         maps = model.policy.q_net.net.q_maps(tensor_obs)[0].cpu().numpy()
