@@ -13,7 +13,7 @@
                   [--arm-collision on|off] [--scene A|B] [--stochastic] [--json]
     relmogen export RUN_DIR_OR_CHECKPOINT --out DIR
     relmogen report RUN_DIRS... --out DIR
-    relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S]
+    relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
 """
 
 from __future__ import annotations
@@ -111,9 +111,13 @@ def cmd_viz_qmap(args: argparse.Namespace) -> int:
     from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 
     paths = q_map_figures_for_checkpoint(Path(args.checkpoint), Path(args.out), args.task, args.states, args.seed,
-                                         args.stride, args.device)
+                                         args.stride, args.device, args.drive)
     for path in paths:
         print(path)
+    summary = Path(args.out) / "oracle_cells.json"
+    if args.drive == "oracle":
+        fields = json.loads(summary.read_text())
+        print(json.dumps({key: value for key, value in fields.items() if key != "states"}))
     return 0
 
 
@@ -232,6 +236,9 @@ def build_parser() -> argparse.ArgumentParser:
     qmap.add_argument("--states", type=_positive_int, default=4, help="figures to draw (default 4)")
     qmap.add_argument("--stride", type=_positive_int, default=3, help="draw every N-th step (default 3)")
     qmap.add_argument("--seed", type=int, default=0, help="first evaluation episode seed")
+    qmap.add_argument("--drive", choices=("greedy", "oracle"), default="greedy",
+                      help="who acts: the policy (every --stride-th state drawn) or the task's oracle "
+                           "(the state before each of its pushes drawn, its cell outlined and ranked)")
     qmap.add_argument("--device", default="auto")
     qmap.set_defaults(func=cmd_viz_qmap)
 

@@ -123,19 +123,27 @@ class SubgoalRControl(SubgoalControl):
 
     def step(self, action) -> StepOutcome:
         a = np.clip(validate_action(action, (8,)), -1.0, 1.0)
-        use_base = self.parts == ("base",) or (self.parts != ("arm",) and a[0] > 0.0)
-        if use_base:
+        if self.uses_base(a):
             angle, distance = a[1] * BASE_ANGLE_RANGE, a[2] + 1.0
             goal = np.array([distance * np.cos(angle), distance * np.sin(angle), a[3] * np.pi])
             return self.outcome(*self.execute_base(goal))
-        height, width = self.env.last_frame.depth.shape
-        row = min(int((a[4] + 1.0) / 2.0 * height), height - 1)
-        col = min(int((a[5] + 1.0) / 2.0 * width), width - 1)
+        row, col = self.arm_pixel(a)
         push = a[6:8] * PUSH_MAX
         norm = float(np.linalg.norm(push))
         if norm > PUSH_MAX:
             push *= PUSH_MAX / norm
         return self.outcome(*self.execute_arm(row, col, push))
+
+
+    def uses_base(self, action: np.ndarray) -> bool:
+        return self.parts == ("base",) or (self.parts != ("arm",) and action[0] > 0.0)
+
+    def arm_pixel(self, action: np.ndarray) -> tuple[int, int]:
+        """(row, col) of the image pixel an arm action reaches for."""
+        height, width = self.env.last_frame.depth.shape
+        row = min(int((action[4] + 1.0) / 2.0 * height), height - 1)
+        col = min(int((action[5] + 1.0) / 2.0 * width), width - 1)
+        return row, col
 
 
 class SubgoalDControl(SubgoalControl):

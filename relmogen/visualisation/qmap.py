@@ -12,10 +12,18 @@ For a few states of greedy evaluation episodes, one PNG with two panels:
 The chosen action (masked greedy, as at evaluation) is marked with a star and an arrow: the
 push direction (robot frame, drawn as seen from above) for arm actions, the final heading for
 base actions. Titles give each part's best Q value, which decides between base and arm.
+
+Which states: ``drive="greedy"`` follows the policy itself and draws every ``stride``-th state.
+A young policy rarely reaches the button or a cabinet, so ``drive="oracle"`` lets the task's
+scripted oracle drive instead and draws the state before each of its pushes, with the cell the
+oracle reaches for outlined in cyan; ``oracle_cells.json`` then records where that cell ranks
+in the learned arm Q map (percentile among the allowed cells): does the policy value the
+button or the cabinet front where it matters?
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,11 +35,14 @@ import numpy as np  # noqa: E402
 import torch as th  # noqa: E402
 
 from relmogen.agents.dqn import info_masks, without_arm_mask  # noqa: E402
+from relmogen.agents.oracles import make_policy  # noqa: E402
 from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
-from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS  # noqa: E402
+from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS, SubgoalRControl  # noqa: E402
 
 OVERLAY_ALPHA = 0.45
 ARROW_CELLS = 2.5  # arrow length in Q-map cells
+DRIVERS = ("greedy", "oracle")
+ORACLE_EPISODES = 20  # give up when the oracle has not pushed in this many episodes
 
 
 @dataclass
@@ -45,6 +56,20 @@ class QMapState:
     parts: tuple[str, ...]
     choice: tuple[str, int, int, int]  # (part, bin, i, j)
     step: int
+    marked_cell: tuple[int, int] | None = None  # (i, j) the oracle reaches for, outlined in cyan
+
+    def arm_values(self) -> np.ndarray:
+        """(Q, Q) arm Q value (max over push directions) of allowed cells, NaN elsewhere."""
+        return np.where(self.masks[1], self.q_maps[YAW_BINS:].max(axis=0), np.nan)
+
+    def arm_percentile(self, cell: tuple[int, int]) -> float | None:
+        """Share (0-100) of allowed arm cells valued below ``cell``; None if ``cell`` is masked."""
+        values = self.arm_values()
+        value = values[cell]
+        if not np.isfinite(value):
+            return None
+        allowed = values[np.isfinite(values)]
+        return float(100.0 * np.mean(allowed < value))
 
 
 def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
@@ -81,7 +106,7 @@ def _arrow(axis, row: float, col: float, angle: float, length: float) -> None:
 def _arm_panel(axis, state: QMapState) -> None:
     size = state.rgb.shape[0]
     axis.imshow(state.rgb)
-    arm = np.where(state.masks[1], state.q_maps[YAW_BINS:].max(axis=0), np.nan)
+    arm = state.arm_values()
     extent = (-0.5, size - 0.5, size - 0.5, -0.5)
     if "arm" in state.parts:
         axis.imshow(_normalised(arm), cmap="jet", alpha=OVERLAY_ALPHA, extent=extent, interpolation="nearest")
@@ -94,6 +119,10 @@ def _arm_panel(axis, state: QMapState) -> None:
         row, col = Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2
         axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
         _arrow(axis, row, col, bin_ * 2 * np.pi / PUSH_BINS, ARROW_CELLS * Q_DOWNSAMPLE)
+    if state.marked_cell is not None:
+        i, j = state.marked_cell
+        axis.add_patch(plt.Rectangle((Q_DOWNSAMPLE * j - 0.5, Q_DOWNSAMPLE * i - 0.5), Q_DOWNSAMPLE, Q_DOWNSAMPLE,
+                                     fill=False, edgecolor="cyan", lw=2.0))
     axis.set_axis_off()
 
 
@@ -142,11 +171,16 @@ def draw_q_map_state(state: QMapState, path: Path, title: str) -> Path:
 
 
 def q_map_figures(model, env: RelmogenEnv, out_dir: Path, states: int = 4, seed: int = 0,
-                  stride: int = 3, title: str = "") -> list[Path]:
-    """Run greedy episodes (seeds ``seed, seed + 1, ...``) and draw every ``stride``-th state
-    until ``states`` figures exist."""
+                  stride: int = 3, title: str = "", drive: str = "greedy") -> list[Path]:
+    """Draw ``states`` figures over episodes with seeds ``seed, seed + 1, ...``: every
+    ``stride``-th state of greedy episodes, or (``drive="oracle"``) the state before each push of
+    the task's oracle."""
     if states < 1 or stride < 1:
         raise ValueError(f"states and stride must be positive, got {states} and {stride}")
+    if drive not in DRIVERS:
+        raise ValueError(f"unknown drive {drive!r}; valid: {', '.join(DRIVERS)}")
+    if drive == "oracle":
+        return _oracle_figures(model, env, Path(out_dir), states, seed, title)
     paths: list[Path] = []
     episode = 0
     while len(paths) < states:
@@ -155,8 +189,8 @@ def q_map_figures(model, env: RelmogenEnv, out_dir: Path, states: int = 4, seed:
         while not done and len(paths) < states:
             state = q_map_state(model, env, obs, step)
             if step % stride == 0:
-                name = f"qmap_{env.unwrapped.task.name}_ep{episode}_step{step:02d}.png"
-                paths.append(draw_q_map_state(state, Path(out_dir) / name, title or env.unwrapped.task.name))
+                paths.append(draw_q_map_state(state, _figure_path(out_dir, env, episode, step),
+                                              title or env.unwrapped.task.name))
             part, bin_, i, j = state.choice
             obs, _, terminated, truncated, _ = env.step(env.unwrapped.control.encode(part, bin_, i, j))
             done, step = terminated or truncated, step + 1
@@ -164,8 +198,70 @@ def q_map_figures(model, env: RelmogenEnv, out_dir: Path, states: int = 4, seed:
     return paths
 
 
+def _figure_path(out_dir: Path, env: RelmogenEnv, episode: int, step: int) -> Path:
+    return Path(out_dir) / f"qmap_{env.unwrapped.task.name}_ep{episode}_step{step:02d}.png"
+
+
+def _oracle_figures(model, env: RelmogenEnv, out_dir: Path, states: int, seed: int, title: str) -> list[Path]:
+    """The oracle acts through a ``subgoal-r`` control on the same world; the policy's own
+    control is put back before every observation, so its masks and local map are current."""
+    unwrapped = env.unwrapped
+    own_control = unwrapped.control
+    planners = own_control.mg.config
+    oracle_control = SubgoalRControl(unwrapped, base_planner=planners.base_planner,
+                                     arm_planner=planners.arm_planner, arm_collision=planners.arm_collision_checking)
+    oracle = make_policy("oracle", unwrapped)
+    paths, records = [], []
+    for episode in range(ORACLE_EPISODES):
+        obs, _ = env.reset(seed=seed + episode)
+        oracle.reset()
+        done, step = False, 0
+        while not done and len(paths) < states:
+            action = oracle.act(obs)
+            if not oracle_control.uses_base(action):
+                row, col = oracle_control.arm_pixel(action)
+                state = q_map_state(model, env, obs, step)
+                state.marked_cell = (row // Q_DOWNSAMPLE, col // Q_DOWNSAMPLE)
+                records.append(_oracle_record(state, episode))
+                paths.append(draw_q_map_state(state, _figure_path(out_dir, env, episode, step),
+                                              title or unwrapped.task.name))
+            unwrapped.control = oracle_control
+            try:
+                _, _, terminated, truncated, _ = env.step(action)
+            finally:
+                unwrapped.control = own_control
+            obs = unwrapped._observe()
+            done, step = terminated or truncated, step + 1
+        if len(paths) >= states:
+            break
+    if not paths:
+        raise RuntimeError(f"the {unwrapped.task.name} oracle made no arm subgoal in {ORACLE_EPISODES} episodes")
+    _write_oracle_summary(out_dir / "oracle_cells.json", records)
+    return paths
+
+
+def _oracle_record(state: QMapState, episode: int) -> dict:
+    part, _, i, j = state.choice
+    return {"episode": episode, "step": state.step, "oracle_cell": list(state.marked_cell),
+            "oracle_cell_allowed": bool(state.masks[1][state.marked_cell]),
+            "oracle_cell_percentile": state.arm_percentile(state.marked_cell),
+            "greedy_part": part, "greedy_is_oracle_cell": part == "arm" and (i, j) == state.marked_cell}
+
+
+def _write_oracle_summary(path: Path, records: list[dict]) -> dict:
+    percentiles = [r["oracle_cell_percentile"] for r in records if r["oracle_cell_percentile"] is not None]
+    summary = {"pushes": len(records), "oracle_cell_allowed": sum(r["oracle_cell_allowed"] for r in records),
+               "mean_percentile": float(np.mean(percentiles)) if percentiles else None,
+               "greedy_arm": sum(r["greedy_part"] == "arm" for r in records),
+               "greedy_is_oracle_cell": sum(r["greedy_is_oracle_cell"] for r in records), "states": records}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(summary, indent=1))
+    return summary
+
+
 def q_map_figures_for_checkpoint(path: Path, out_dir: Path, task: str | None = None, states: int = 4,
-                                 seed: int = 0, stride: int = 3, device: str = "auto") -> list[Path]:
+                                 seed: int = 0, stride: int = 3, device: str = "auto",
+                                 drive: str = "greedy") -> list[Path]:
     """``relmogen viz qmap``: load a relmogen-d run or checkpoint and draw its Q maps on ``task``
     (default: the task it was trained on), arm collision checking on as at evaluation."""
     from relmogen.experiments.evaluate import load_policy
@@ -181,6 +277,7 @@ def q_map_figures_for_checkpoint(path: Path, out_dir: Path, task: str | None = N
         if min(env.observation_space["local_map"].shape) != min(model.observation_space["local_map"].shape):
             raise ValueError(f"{config.task}'s local map has a different number of channels than the "
                              f"task {run_dir.name} was trained on")
-        return q_map_figures(model, env, out_dir, states, seed, stride, title=f"{run_dir.name} on {config.task}")
+        return q_map_figures(model, env, out_dir, states, seed, stride, title=f"{run_dir.name} on {config.task}",
+                             drive=drive)
     finally:
         env.close()

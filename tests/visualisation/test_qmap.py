@@ -1,5 +1,7 @@
 """``relmogen viz qmap``: the state it draws, the greedy choice it marks, the files it writes."""
 
+import json
+
 import imageio.v2 as imageio
 import numpy as np
 import pytest
@@ -8,8 +10,9 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.envs.subgoal_controls import YAW_BINS
-from relmogen.visualisation.qmap import q_map_figures, q_map_state
+from relmogen.agents.oracles.base import world_to_pixel
+from relmogen.envs.subgoal_controls import Q_DOWNSAMPLE, YAW_BINS
+from relmogen.visualisation.qmap import QMapState, q_map_figures, q_map_state
 
 SIZE = 64
 
@@ -57,3 +60,35 @@ def test_bad_arguments_are_refused(model_and_env, tmp_path):
     model, env = model_and_env
     with pytest.raises(ValueError, match="positive"):
         q_map_figures(model, env, tmp_path, states=0)
+
+
+def test_oracle_drive_draws_its_pushes_at_the_button(model_and_env, tmp_path):
+    model, env = model_and_env
+    own_control = env.control
+    paths = q_map_figures(model, env, tmp_path, states=2, seed=0, drive="oracle")
+    assert env.control is own_control  # the policy's control is back after the oracle's steps
+    summary = json.loads((tmp_path / "oracle_cells.json").read_text())
+    assert len(paths) == 2 and summary["pushes"] == 2 and all(p.is_file() for p in paths)
+    # The oracle pushed from where it stood at the last figure: the cell it reached for sees the button.
+    row, col = world_to_pixel(env, env.task.button.face_centre())
+    last = summary["states"][-1]
+    assert last["oracle_cell"] == [row // Q_DOWNSAMPLE, col // Q_DOWNSAMPLE]
+    assert last["oracle_cell_allowed"] and 0.0 <= last["oracle_cell_percentile"] <= 100.0
+
+
+def test_arm_percentile_ranks_among_allowed_cells_only():
+    q = np.zeros((YAW_BINS + 12, 2, 2))
+    q[YAW_BINS:, 0, 0], q[YAW_BINS + 3, 0, 1], q[YAW_BINS + 5, 1, 0] = 1.0, 2.0, 9.0
+    masks = np.ones((2, 2, 2), dtype=bool)
+    masks[1, 1, 0] = False  # the 9.0 cell is masked: it must not count
+    state = QMapState(np.zeros((8, 8, 3), np.uint8), np.zeros((8, 8, 1), np.uint8), q, masks, ("base", "arm"),
+                      ("arm", 3, 0, 1), step=0)
+    assert state.arm_percentile((0, 1)) == pytest.approx(100.0 * 2 / 3)  # above (0,0) and (1,1)
+    assert state.arm_percentile((1, 1)) == 0.0
+    assert state.arm_percentile((1, 0)) is None
+
+
+def test_unknown_driver_is_refused(model_and_env, tmp_path):
+    model, env = model_and_env
+    with pytest.raises(ValueError, match="unknown drive"):
+        q_map_figures(model, env, tmp_path, drive="teleop")
