@@ -114,9 +114,8 @@ def cmd_viz_qmap(args: argparse.Namespace) -> int:
                                          args.stride, args.device, args.drive)
     for path in paths:
         print(path)
-    summary = Path(args.out) / "oracle_cells.json"
     if args.drive == "oracle":
-        fields = json.loads(summary.read_text())
+        fields = json.loads((Path(args.out) / "oracle_cells.json").read_text())
         print(json.dumps({key: value for key, value in fields.items() if key != "states"}))
     return 0
 

@@ -16,7 +16,7 @@ import json
 from collections import defaultdict
 from pathlib import Path
 
-import numpy as np
+from relmogen.experiments.report import summarise
 
 
 def stage_rows(stage: Path) -> dict[str, list[dict]]:
@@ -38,10 +38,10 @@ def main() -> None:
         if not by_task:
             raise SystemExit(f"no */oracle_cells.json under {stage}")
         for task, seeds in sorted(by_task.items()):
-            percentiles = np.array([s["mean_percentile"] for s in seeds], dtype=float)
+            percentile = summarise([s["mean_percentile"] for s in seeds])
             states = sum(s["pushes"] for s in seeds)
             print(f"| {stage.name} | {task} | {len(seeds)} | {states // len(seeds)} "
-                  f"| {percentiles.mean():.1f} / {percentiles.std():.1f} / {percentiles.max():.1f} "
+                  f"| {percentile['mean']:.1f} / {percentile['std']:.1f} / {percentile['max']:.1f} "
                   f"| {sum(s['greedy_arm'] for s in seeds)} of {states} "
                   f"| {sum(s['greedy_is_oracle_cell'] for s in seeds)} of {states} |")
 

@@ -8,15 +8,12 @@ closed within 10 deg / 10 cm (ArrangeKitchenMM, from ``episodes.csv``).
 from __future__ import annotations
 
 import argparse
-import csv
 from pathlib import Path
 
+import numpy as np
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-
-def episode_rows(run: Path) -> list[dict]:
-    with open(run / "episodes.csv", newline="") as handle:
-        return list(csv.DictReader(handle))
+from relmogen.experiments.report import read_curve
 
 
 def pressed_episodes(run: Path) -> set[int]:
@@ -32,18 +29,18 @@ def pressed_episodes(run: Path) -> set[int]:
 
 
 def windows(run: Path, window: int) -> list[dict]:
-    rows, pressed = episode_rows(run), pressed_episodes(run)
+    curve, pressed = read_curve(run / "episodes.csv"), pressed_episodes(run)
     summary = []
-    for start in range(0, len(rows), window):
-        chunk = rows[start:start + window]
-        closed = [float(r["closed_10"]) for r in chunk if r.get("closed_10") not in (None, "")]
+    for start in range(0, len(curve["episode"]), window):
+        part = {key: values[start:start + window] for key, values in curve.items()}
+        episodes, closed = part["episode"].astype(int), part["closed_10"][np.isfinite(part["closed_10"])]
         summary.append({
-            "episodes": f"{chunk[0]['episode']}-{chunk[-1]['episode']}",
-            "hours": round(float(chunk[-1]["wall_time_s"]) / 3600, 2),
-            "successes": int(sum(float(r["success"]) for r in chunk)),
-            "presses": sum(int(r["episode"]) in pressed for r in chunk),
-            "closed_10_per_episode": round(sum(closed) / len(closed), 3) if closed else None,
-            "mean_return": round(sum(float(r["return"]) for r in chunk) / len(chunk), 2),
+            "episodes": f"{episodes[0]}-{episodes[-1]}",
+            "hours": round(float(part["wall_time_s"][-1]) / 3600, 2),
+            "successes": int(part["success"].sum()),
+            "presses": sum(int(e) in pressed for e in episodes),
+            "closed_10_per_episode": round(float(closed.mean()), 3) if closed.size else None,
+            "mean_return": round(float(part["return"].mean()), 2),
         })
     return summary
 

@@ -134,7 +134,6 @@ class SubgoalRControl(SubgoalControl):
             push *= PUSH_MAX / norm
         return self.outcome(*self.execute_arm(row, col, push))
 
-
     def uses_base(self, action: np.ndarray) -> bool:
         return self.parts == ("base",) or (self.parts != ("arm",) and action[0] > 0.0)
 

@@ -248,7 +248,7 @@ def _oracle_record(state: QMapState, episode: int) -> dict:
             "greedy_part": part, "greedy_is_oracle_cell": part == "arm" and (i, j) == state.marked_cell}
 
 
-def _write_oracle_summary(path: Path, records: list[dict]) -> dict:
+def _write_oracle_summary(path: Path, records: list[dict]) -> None:
     percentiles = [r["oracle_cell_percentile"] for r in records if r["oracle_cell_percentile"] is not None]
     summary = {"pushes": len(records), "oracle_cell_allowed": sum(r["oracle_cell_allowed"] for r in records),
                "mean_percentile": float(np.mean(percentiles)) if percentiles else None,
@@ -256,7 +256,6 @@ def _write_oracle_summary(path: Path, records: list[dict]) -> dict:
                "greedy_is_oracle_cell": sum(r["greedy_is_oracle_cell"] for r in records), "states": records}
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(summary, indent=1))
-    return summary
 
 
 def q_map_figures_for_checkpoint(path: Path, out_dir: Path, task: str | None = None, states: int = 4,
