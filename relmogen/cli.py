@@ -66,7 +66,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.train import resume, train
 
     if args.resume:
-        run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours)
+        run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours,
+                         overrides=args.set)
     else:
         if not args.task or not args.algo:
             raise ValueError("--task and --algo are required unless --resume is given")
@@ -201,7 +202,8 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--device", default="auto")
     train.add_argument("--out", default="runs")
     train.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                       help="override a preset value, e.g. --set algo.batch_size=32 --set env.n_envs=4")
+                       help="override a preset value, e.g. --set algo.batch_size=32 --set env.n_envs=4; with --resume, "
+                            "learning parameters only (e.g. algo.exploration_final_eps=0.2, algo.buffer_size=50000)")
     train.add_argument("--resume", default=None, metavar="RUN_DIR")
     train.add_argument("--quiet", action="store_true")
     train.set_defaults(func=cmd_train)

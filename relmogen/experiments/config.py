@@ -126,6 +126,38 @@ def resolve_config(task: str, algo: str, seed: int = 0, preset: str = "cpu", epi
         raise ValueError(f"invalid configuration:\n{error}") from error
 
 
+# What a resumed run may change: the learning schedule and the run's bookkeeping. The rest fixes
+# the network's shapes, the replay layout or the task, which a checkpoint cannot follow.
+RESUMABLE_ALGO_KEYS = frozenset({
+    "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
+    "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
+    "exploration_steps",
+})
+
+
+def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:
+    """``--set`` on a resumed run: the new config and the changed algorithm parameters.
+
+    Only ``algo.*`` keys in ``RESUMABLE_ALGO_KEYS`` and ``run.*`` keys may change."""
+    tree = config.model_dump()
+    for assignment in overrides:
+        section = assignment.split("=", 1)[0].strip().split(".")
+        if section[0] == "run" and len(section) == 2:
+            pass
+        elif section[0] == "algo" and len(section) == 2 and section[1] in RESUMABLE_ALGO_KEYS:
+            pass
+        else:
+            raise ValueError(f"cannot change {assignment.split('=', 1)[0]!r} when resuming; resumable keys: "
+                             f"run.*, {', '.join('algo.' + key for key in sorted(RESUMABLE_ALGO_KEYS))}")
+        _apply_override(tree, assignment)
+    try:
+        updated = TrainConfig.model_validate(tree)
+    except ValidationError as error:
+        raise ValueError(f"invalid configuration:\n{error}") from error
+    before, after = config.algo_params.model_dump(), updated.algo_params.model_dump()
+    return updated, {key: after[key] for key in after if after[key] != before[key]}
+
+
 def save_config(config: TrainConfig, path: Path) -> None:
     path.write_text(yaml.safe_dump(config.model_dump(), sort_keys=False))
 

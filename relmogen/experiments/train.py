@@ -28,9 +28,10 @@ from torch.utils.tensorboard import SummaryWriter
 
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.networks import SGPREncoder
+from relmogen.agents.replay import resize_replay_buffer
 from relmogen.agents.sac import OAC, SharedEncoderSAC
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.experiments.config import TrainConfig, read_config, save_config
+from relmogen.experiments.config import TrainConfig, override_config, read_config, save_config
 
 CHECKPOINTS = "checkpoints"
 LATEST = "latest"  # a file naming the newest complete checkpoint folder
@@ -283,27 +284,39 @@ def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False) ->
 
 
 def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
-           max_hours: float | None = None) -> Path:
-    """Continue a run from its latest checkpoint, optionally with a new episode budget or a new
-    total wall-clock budget (hours counted from the run's start, across resumes)."""
+           max_hours: float | None = None, overrides: list[str] = ()) -> Path:
+    """Continue a run from its latest checkpoint, optionally with a new episode budget, a new
+    total wall-clock budget (hours counted from the run's start, across resumes) or changed
+    learning parameters (``overrides``, ``--set`` syntax, see ``override_config``). Every
+    change is appended to ``resumes.jsonl`` with the episode it took effect at."""
     run_dir = Path(run_dir)
+    config, changed = override_config(read_config(run_dir / "config.yaml"), list(overrides))
     (run_dir / "done.json").unlink(missing_ok=True)  # running again: not done until _learn returns
-    config = read_config(run_dir / "config.yaml")
     updates = {key: value for key, value in (("episodes", episodes), ("max_hours", max_hours)) if value is not None}
-    if updates:
-        config = config.model_copy(update=updates)
-        save_config(config, run_dir / "config.yaml")
+    config = config.model_copy(update=updates)
     checkpoint = latest_checkpoint(run_dir)
+    state = json.loads((checkpoint / "state.json").read_text()) if checkpoint else None
+    if updates or overrides:
+        save_config(config, run_dir / "config.yaml")
+        _log_resume(run_dir, state, updates, list(overrides))
     env = make_training_env(config)
     if checkpoint is None:  # killed before the first checkpoint: start over in place
         state, model = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, build_model(config, env)
     else:
-        state = json.loads((checkpoint / "state.json").read_text())
         th.set_num_threads(config.run.torch_threads)  # as build_model does: extra threads thrash a busy CPU
-        model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device))
+        model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device),
+                                         **changed)  # SB3 rebuilds schedules and buffer from these
         model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
+        resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
     _truncate_episode_log(run_dir / "episodes.csv", state["episodes"])
     return _learn(run_dir, config, model, state, quiet)
+
+
+def _log_resume(run_dir: Path, state: dict | None, updates: dict, overrides: list[str]) -> None:
+    entry = {"from_episode": state["episodes"] if state else 0, "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
+             **updates, "set": overrides}
+    with open(run_dir / "resumes.jsonl", "a") as handle:
+        handle.write(json.dumps(entry) + "\n")
 
 
 def _truncate_episode_log(path: Path, episodes: int) -> None:

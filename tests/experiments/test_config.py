@@ -1,6 +1,6 @@
 import pytest
 
-from relmogen.experiments.config import available_presets, resolve_config
+from relmogen.experiments.config import available_presets, override_config, resolve_config
 
 
 def test_presets_exist_and_validate():
@@ -37,3 +37,19 @@ def test_bad_configuration_is_refused_with_a_reason(kwargs, message):
     args = dict(task="PointNav", algo="sac") | kwargs
     with pytest.raises(ValueError, match=message):
         resolve_config(**args)
+
+
+def test_a_resumed_run_may_change_its_learning_schedule_and_reports_what_changed():
+    config = resolve_config("PointNav", "relmogen-d", preset="cpu")
+    updated, changed = override_config(config, ["algo.exploration_final_eps=0.2", "algo.buffer_size=50000",
+                                                "algo.gamma=0.99", "run.eval_episodes=3"])
+    assert changed == {"exploration_final_eps": 0.2, "buffer_size": 50000}  # gamma is unchanged
+    assert updated.run.eval_episodes == 3 and updated.env == config.env
+
+
+@pytest.mark.parametrize("assignment", ["env.image_size=128", "algo.qmap_widths=[8, 8, 8, 8]", "task=PushDoorNav",
+                                        "algo.mask_arm=false"])
+def test_a_resumed_run_refuses_changes_its_checkpoint_cannot_follow(assignment):
+    config = resolve_config("PointNav", "relmogen-d", preset="cpu")
+    with pytest.raises(ValueError, match="when resuming"):
+        override_config(config, [assignment])

@@ -13,10 +13,12 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 import torch as th
+from stable_baselines3.common.save_util import load_from_pkl
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
+from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.shipped import export_actor, open_shipped
-from relmogen.experiments.config import resolve_config
+from relmogen.experiments.config import read_config, resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_policy
 from relmogen.experiments.train import EPISODE_FIELDS, _truncate_episode_log, latest_checkpoint, resume, train
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
@@ -68,6 +70,28 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
         assert len(figures) == 1 and imageio.imread(figures[0]).shape[0] > 100
     else:
         assert_exported_actor_acts_like_the_model(run_dir, tmp_path / "shipped")
+
+
+def test_resume_with_a_changed_schedule_grows_the_replay_buffer_and_logs_the_change(tmp_path):
+    config = resolve_config("PointNav", "relmogen-d", seed=0, preset="tiny", episodes=2)
+    run_dir = train(config, tmp_path, quiet=True)
+    stored = load_from_pkl(latest_checkpoint(run_dir) / "replay_buffer.pkl")
+    transitions = stored.pos * stored.n_envs
+    bigger = 2 * config.algo_params.buffer_size
+    resume(run_dir, quiet=True, episodes=3, overrides=["algo.exploration_final_eps=0.5", f"algo.buffer_size={bigger}"])
+    saved = read_config(run_dir / "config.yaml")
+    assert saved.algo_params.exploration_final_eps == 0.5 and saved.algo_params.buffer_size == bigger
+    model = RelmogenDQN.load(latest_checkpoint(run_dir) / "model.zip")
+    assert model.exploration_final_eps == 0.5
+    grown = load_from_pkl(latest_checkpoint(run_dir) / "replay_buffer.pkl")
+    assert grown.buffer_size * grown.n_envs == bigger and grown.pos * grown.n_envs > transitions
+    assert np.array_equal(grown.rewards[: stored.pos], stored.rewards[: stored.pos])  # the old ones, first
+    log = [json.loads(line) for line in (run_dir / "resumes.jsonl").read_text().splitlines()]
+    assert log == [dict(log[0], from_episode=2, episodes=3,
+                        set=["algo.exploration_final_eps=0.5", f"algo.buffer_size={bigger}"])]
+    with pytest.raises(ValueError, match="when resuming"):
+        resume(run_dir, quiet=True, overrides=["env.image_size=128"])
+    assert (run_dir / "done.json").is_file()  # a refused change leaves the run as it was
 
 
 def test_tasks_that_count_items_log_items_closed_per_episode(tmp_path):

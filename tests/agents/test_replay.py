@@ -1,0 +1,48 @@
+"""Resizing a loaded replay buffer keeps the newest transitions in time order."""
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
+
+from relmogen.agents.replay import resize_replay_buffer, stored_rows
+
+N_ENVS = 2
+
+
+def filled(buffer_cls, observation_space, transitions: int, steps: int):
+    buffer = buffer_cls(transitions, observation_space, spaces.Discrete(5), n_envs=N_ENVS)
+    for step in range(steps):  # observation and reward of step t are both t
+        obs = ({key: np.full((N_ENVS, 3), step, np.float32) for key in observation_space.spaces}
+               if isinstance(observation_space, spaces.Dict) else np.full((N_ENVS, 3), step, np.float32))
+        buffer.add(obs, obs, np.zeros((N_ENVS, 1)), np.full(N_ENVS, step, np.float32), np.zeros(N_ENVS),
+                   [{}] * N_ENVS)
+    return buffer
+
+
+def stored_steps(buffer) -> list[int]:
+    return [int(buffer.rewards[row, 0]) for row in stored_rows(buffer)]
+
+
+@pytest.mark.parametrize("steps", [3, 7])  # not yet full / wrapped around the ring
+def test_growing_keeps_every_transition_in_order_and_appends_after_them(steps):
+    buffer = filled(ReplayBuffer, spaces.Box(-1, 1, (3,)), transitions=10, steps=steps)
+    before = stored_steps(buffer)
+    resize_replay_buffer(buffer, 40)
+    assert buffer.buffer_size == 20 and buffer.observations.shape[0] == 20 and not buffer.full
+    assert stored_steps(buffer) == before == list(range(max(0, steps - 5), steps))
+    assert np.array_equal(buffer.observations[stored_rows(buffer), 0, 0], before)
+    buffer.add(np.zeros((N_ENVS, 3)), np.zeros((N_ENVS, 3)), np.zeros((N_ENVS, 1)), np.full(N_ENVS, 99.0),
+               np.zeros(N_ENVS), [{}] * N_ENVS)
+    assert stored_steps(buffer) == before + [99]
+
+
+def test_shrinking_a_dict_buffer_keeps_the_newest_rows_of_every_array():
+    space = spaces.Dict({"rgb": spaces.Box(-1, 1, (3,)), "depth": spaces.Box(-1, 1, (3,))})
+    buffer = filled(DictReplayBuffer, space, transitions=10, steps=8)
+    resize_replay_buffer(buffer, 6)
+    assert buffer.buffer_size == 3 and buffer.full and buffer.pos == 0
+    assert stored_steps(buffer) == [5, 6, 7]
+    for store in (buffer.observations, buffer.next_observations):
+        assert all(np.array_equal(array[:, 0, 0], [5, 6, 7]) for array in store.values())
+    assert buffer.sample(4).rewards.shape == (4, 1)
