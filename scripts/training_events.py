@@ -3,11 +3,13 @@ button presses (ButtonDoorNav, from the ``reward_terms/button`` TensorBoard scal
 closed within 10 deg / 10 cm (ArrangeKitchenMM, from ``episodes.csv``).
 
     python scripts/training_events.py runs/sgpd-long/*__relmogen-d__* --window 400
+    python scripts/training_events.py runs/sgpd-button/* --phases   # one row per resume that changed settings
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -28,11 +30,21 @@ def pressed_episodes(run: Path) -> set[int]:
     return pressed
 
 
-def windows(run: Path, window: int) -> list[dict]:
+def phase_starts(run: Path) -> list[int]:
+    """Row offsets where a resume with ``--set`` changed the run's settings (``resumes.jsonl``)."""
+    log = run / "resumes.jsonl"
+    entries = [json.loads(line) for line in log.read_text().splitlines()] if log.is_file() else []
+    return [0] + [entry["from_episode"] for entry in entries if entry.get("set")]
+
+
+def windows(run: Path, window: int | None) -> list[dict]:
+    """Rows of ``window`` episodes, or (``None``) one row per settings phase."""
     curve, pressed = read_curve(run / "episodes.csv"), pressed_episodes(run)
+    total = len(curve["episode"])
+    starts = phase_starts(run) if window is None else list(range(0, total, window))
     summary = []
-    for start in range(0, len(curve["episode"]), window):
-        part = {key: values[start:start + window] for key, values in curve.items()}
+    for start, end in zip(starts, starts[1:] + [total]):
+        part = {key: values[start:end] for key, values in curve.items()}
         episodes, closed = part["episode"].astype(int), part["closed_10"][np.isfinite(part["closed_10"])]
         summary.append({
             "episodes": f"{episodes[0]}-{episodes[-1]}",
@@ -49,13 +61,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path)
     parser.add_argument("--window", type=int, default=400, help="episodes per row (default 400)")
+    parser.add_argument("--phases", action="store_true",
+                        help="one row per settings phase instead: split where a resume changed settings")
     args = parser.parse_args()
     if args.window < 1:
         parser.error("--window must be positive")
     print("| run | episodes | hours (end) | successes | button presses | closed_10 per episode | mean return |")
     print("|---|---|---|---|---|---|---|")
     for run in args.runs:
-        for row in windows(run, args.window):
+        for row in windows(run, None if args.phases else args.window):
             closed = "-" if row["closed_10_per_episode"] is None else row["closed_10_per_episode"]
             print(f"| {run.name} | {row['episodes']} | {row['hours']} | {row['successes']} | {row['presses']} "
                   f"| {closed} | {row['mean_return']} |")

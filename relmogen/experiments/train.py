@@ -248,6 +248,8 @@ class TrainingMonitor(BaseCallback):
         self.writer.add_scalar("charts/success_rate", float(np.mean(self.successes)), episode)
         self.writer.add_scalar("charts/SPS", sps, episode)
         self.writer.add_scalar("charts/timesteps", self.model.num_timesteps, episode)
+        if hasattr(self.model, "exploration_rate"):  # DQN's epsilon
+            self.writer.add_scalar("charts/epsilon", self.model.exploration_rate, episode)
         for key in ("base_fraction", "subgoal_success", "closed_10"):
             if key in row:
                 self.writer.add_scalar(f"charts/{key}", row[key], episode)

@@ -37,6 +37,7 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     tags = EventAccumulator(str(run_dir / "tb")).Reload().Tags()["scalars"]
     assert {"charts/episodic_return", "charts/success_rate", "charts/SPS", "reward_terms/geodesic"} <= set(tags)
     assert len(EventAccumulator(str(run_dir / "tb")).Reload().Scalars("reward_terms/geodesic")) == episodes
+    assert ("charts/epsilon" in tags) == (algo == "relmogen-d")
     assert episodes_in(run_dir) == list(range(1, episodes + 1))
     shares = [row["base_fraction"] for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))]
     if algo.startswith("relmogen"):  # subgoal controls log the base share of each episode's subgoals
