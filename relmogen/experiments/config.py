@@ -133,6 +133,8 @@ RESUMABLE_ALGO_KEYS = frozenset({
     "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
     "exploration_steps",
 })
+DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
+                           "exploration_final_eps", "exploration_steps"})
 
 
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:
@@ -149,6 +151,8 @@ def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainCon
         else:
             raise ValueError(f"cannot change {assignment.split('=', 1)[0]!r} when resuming; resumable keys: "
                              f"run.*, {', '.join('algo.' + key for key in sorted(RESUMABLE_ALGO_KEYS))}")
+        if section[-1] in DQN_ONLY_KEYS and config.algo != "relmogen-d":
+            raise ValueError(f"{section[-1]} applies to relmogen-d only, not to this {config.algo} run")
         _apply_override(tree, assignment)
     try:
         updated = TrainConfig.model_validate(tree)

@@ -53,3 +53,9 @@ def test_a_resumed_run_refuses_changes_its_checkpoint_cannot_follow(assignment):
     config = resolve_config("PointNav", "relmogen-d", preset="cpu")
     with pytest.raises(ValueError, match="when resuming"):
         override_config(config, [assignment])
+
+
+def test_a_resumed_run_refuses_a_setting_its_algorithm_does_not_have():
+    config = resolve_config("PointNav", "relmogen-r", preset="cpu")
+    with pytest.raises(ValueError, match="relmogen-d only"):
+        override_config(config, ["algo.exploration_final_eps=0.2"])
