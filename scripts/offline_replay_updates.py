@@ -1,0 +1,83 @@
+"""Extra SGP-D updates from a run's own replay buffer, without new experience: does replaying
+the stored transitions more often (a higher replay ratio) teach the arm Q map the rare
+rewarded pushes? The copy gets a new checkpoint; look at it with ``relmogen viz qmap``.
+
+    python scripts/offline_replay_updates.py runs/sgpd-button/RUN --updates 20000 --out runs/sgpd-offline/RUN
+    relmogen viz qmap runs/sgpd-offline/RUN --drive oracle --states 16 --out DIR
+
+Target network: copied every ``target_update_interval / (n_envs * train_freq)`` updates, the
+same number of updates between copies as in training.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import torch as th
+from rich.progress import Progress
+
+from relmogen.agents.dqn import RelmogenDQN
+from relmogen.agents.replay import stored_rows
+from relmogen.experiments.config import read_config
+from relmogen.experiments.train import latest_checkpoint, write_checkpoint
+
+
+def copy_run(run: Path, out: Path) -> None:
+    if out.exists():
+        raise SystemExit(f"{out} exists; choose a new --out")
+    shutil.copytree(run, out, ignore=shutil.ignore_patterns("eval", "checkpoints"))
+    (out / "checkpoints").mkdir()
+
+
+def rewarded_transitions(model: RelmogenDQN, threshold: float) -> int:
+    rewards = model.replay_buffer.rewards[stored_rows(model.replay_buffer)]
+    return int((rewards >= threshold).sum())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("run", type=Path)
+    parser.add_argument("--updates", type=int, default=20000)
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--reward-threshold", type=float, default=5.0,
+                        help="count stored transitions with at least this reward (default 5: a button press)")
+    args = parser.parse_args()
+    if args.updates < 1:
+        parser.error("--updates must be positive")
+    config = read_config(args.run / "config.yaml")
+    checkpoint = latest_checkpoint(args.run)
+    if config.algo != "relmogen-d" or checkpoint is None:
+        raise SystemExit(f"{args.run} is not a relmogen-d run with a checkpoint")
+    th.set_num_threads(config.run.torch_threads)
+    model = RelmogenDQN.load(checkpoint / "model.zip", device="cpu")
+    model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
+    params = config.algo_params
+    copy_every = max(params.target_update_interval // (config.env.n_envs * params.train_freq), 1)
+    start, losses = time.time(), []
+    with Progress() as progress:
+        bar = progress.add_task("offline updates", total=args.updates)
+        for update in range(1, args.updates + 1):
+            model.policy.set_training_mode(True)
+            losses.append(model._gradient_step(model.replay_buffer.sample(params.batch_size)))
+            if update % copy_every == 0:
+                model.q_net_target.load_state_dict(model.q_net.state_dict())
+            progress.advance(bar)
+    copy_run(args.run, args.out)
+    state = json.loads((checkpoint / "state.json").read_text())
+    write_checkpoint(args.out, model, dict(state, offline_updates=args.updates))
+    summary = {"run": str(args.run), "updates": args.updates, "batch_size": params.batch_size,
+               "target_copy_every": copy_every, "stored_transitions": len(stored_rows(model.replay_buffer)) * model.n_envs,
+               "rewarded_transitions": rewarded_transitions(model, args.reward_threshold),
+               "loss_first_1000": float(np.mean(losses[:1000])), "loss_last_1000": float(np.mean(losses[-1000:])),
+               "seconds": round(time.time() - start, 1)}
+    (args.out / "offline_updates.json").write_text(json.dumps(summary, indent=1))
+    print(json.dumps(summary))
+
+
+if __name__ == "__main__":
+    main()
