@@ -28,8 +28,6 @@ from relmogen.experiments.train import latest_checkpoint, write_checkpoint
 
 
 def copy_run(run: Path, out: Path) -> None:
-    if out.exists():
-        raise SystemExit(f"{out} exists; choose a new --out")
     shutil.copytree(run, out, ignore=shutil.ignore_patterns("eval", "checkpoints"))
     (out / "checkpoints").mkdir()
 
@@ -49,6 +47,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.updates < 1:
         parser.error("--updates must be positive")
+    if args.out.exists():
+        parser.error(f"{args.out} exists; choose a new --out")
     config = read_config(args.run / "config.yaml")
     checkpoint = latest_checkpoint(args.run)
     if config.algo != "relmogen-d" or checkpoint is None:
@@ -59,10 +59,10 @@ def main() -> None:
     params = config.algo_params
     copy_every = max(params.target_update_interval // (config.env.n_envs * params.train_freq), 1)
     start, losses = time.time(), []
+    model.policy.set_training_mode(True)
     with Progress() as progress:
         bar = progress.add_task("offline updates", total=args.updates)
         for update in range(1, args.updates + 1):
-            model.policy.set_training_mode(True)
             losses.append(model._gradient_step(model.replay_buffer.sample(params.batch_size)))
             if update % copy_every == 0:
                 model.q_net_target.load_state_dict(model.q_net.state_dict())

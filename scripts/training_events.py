@@ -9,13 +9,13 @@ closed within 10 deg / 10 cm (ArrangeKitchenMM, from ``episodes.csv``).
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from relmogen.experiments.report import read_curve
+from relmogen.experiments.train import read_resume_log
 
 
 def pressed_episodes(run: Path) -> set[int]:
@@ -32,9 +32,7 @@ def pressed_episodes(run: Path) -> set[int]:
 
 def phase_starts(run: Path) -> list[int]:
     """Row offsets where a resume with ``--set`` changed the run's settings (``resumes.jsonl``)."""
-    log = run / "resumes.jsonl"
-    entries = [json.loads(line) for line in log.read_text().splitlines()] if log.is_file() else []
-    return [0] + [entry["from_episode"] for entry in entries if entry.get("set")]
+    return [0] + [entry["from_episode"] for entry in read_resume_log(run) if entry.get("set")]
 
 
 def windows(run: Path, window: int | None) -> list[dict]:

@@ -314,11 +314,20 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
     return _learn(run_dir, config, model, state, quiet)
 
 
+RESUME_LOG = "resumes.jsonl"
+
+
 def _log_resume(run_dir: Path, state: dict | None, updates: dict, overrides: list[str]) -> None:
     entry = {"from_episode": state["episodes"] if state else 0, "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
              **updates, "set": overrides}
-    with open(run_dir / "resumes.jsonl", "a") as handle:
+    with open(run_dir / RESUME_LOG, "a") as handle:
         handle.write(json.dumps(entry) + "\n")
+
+
+def read_resume_log(run_dir: Path) -> list[dict]:
+    """The run's resumes, oldest first (empty for a run never resumed with changes)."""
+    log = Path(run_dir) / RESUME_LOG
+    return [json.loads(line) for line in log.read_text().splitlines()] if log.is_file() else []
 
 
 def _truncate_episode_log(path: Path, episodes: int) -> None:

@@ -20,7 +20,8 @@ from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.experiments.config import read_config, resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_policy
-from relmogen.experiments.train import EPISODE_FIELDS, _truncate_episode_log, latest_checkpoint, resume, train
+from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, latest_checkpoint, read_resume_log,
+                                       resume, train)
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 
 
@@ -87,7 +88,7 @@ def test_resume_with_a_changed_schedule_grows_the_replay_buffer_and_logs_the_cha
     grown = load_from_pkl(latest_checkpoint(run_dir) / "replay_buffer.pkl")
     assert grown.buffer_size * grown.n_envs == bigger and grown.pos * grown.n_envs > transitions
     assert np.array_equal(grown.rewards[: stored.pos], stored.rewards[: stored.pos])  # the old ones, first
-    log = [json.loads(line) for line in (run_dir / "resumes.jsonl").read_text().splitlines()]
+    log = read_resume_log(run_dir)
     assert log == [dict(log[0], from_episode=2, episodes=3,
                         set=["algo.exploration_final_eps=0.5", f"algo.buffer_size={bigger}"])]
     with pytest.raises(ValueError, match="when resuming"):
