@@ -3,6 +3,7 @@ the stored transitions more often (a higher replay ratio) teach the arm Q map th
 rewarded pushes? The copy gets a new checkpoint; look at it with ``relmogen viz qmap``.
 
     python scripts/offline_replay_updates.py runs/sgpd-button/RUN --updates 20000 --out runs/sgpd-offline/RUN
+    python scripts/offline_replay_updates.py RUN --updates 4000 --conservative-weight 1 --out OUT
     relmogen viz qmap runs/sgpd-offline/RUN --drive oracle --states 16 --out DIR
 
 Target network: copied every ``target_update_interval / (n_envs * train_freq)`` updates, the
@@ -42,11 +43,15 @@ def main() -> None:
     parser.add_argument("run", type=Path)
     parser.add_argument("--updates", type=int, default=20000)
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--conservative-weight", type=float, default=None,
+                        help="weight of the conservative term during these updates (default: the run's own)")
     parser.add_argument("--reward-threshold", type=float, default=5.0,
                         help="count stored transitions with at least this reward (default 5: a button press)")
     args = parser.parse_args()
     if args.updates < 1:
         parser.error("--updates must be positive")
+    if args.conservative_weight is not None and args.conservative_weight < 0:
+        parser.error("--conservative-weight must be at least 0")
     if args.out.exists():
         parser.error(f"{args.out} exists; choose a new --out")
     config = read_config(args.run / "config.yaml")
@@ -54,16 +59,19 @@ def main() -> None:
     if config.algo != "relmogen-d" or checkpoint is None:
         raise SystemExit(f"{args.run} is not a relmogen-d run with a checkpoint")
     th.set_num_threads(config.run.torch_threads)
-    model = RelmogenDQN.load(checkpoint / "model.zip", device="cpu")
+    changed = {} if args.conservative_weight is None else {"conservative_weight": args.conservative_weight}
+    model = RelmogenDQN.load(checkpoint / "model.zip", device="cpu", **changed)
     model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
     params = config.algo_params
     copy_every = max(params.target_update_interval // (config.env.n_envs * params.train_freq), 1)
-    start, losses = time.time(), []
+    start, losses, gaps = time.time(), [], []
     model.policy.set_training_mode(True)
     with Progress() as progress:
         bar = progress.add_task("offline updates", total=args.updates)
         for update in range(1, args.updates + 1):
-            losses.append(model._gradient_step(model.replay_buffer.sample(params.batch_size)))
+            loss, gap = model._gradient_step(model.replay_buffer.sample(params.batch_size))
+            losses.append(loss)
+            gaps.append(gap)
             if update % copy_every == 0:
                 model.q_net_target.load_state_dict(model.q_net.state_dict())
             progress.advance(bar)
@@ -73,7 +81,10 @@ def main() -> None:
     summary = {"run": str(args.run), "updates": args.updates, "batch_size": params.batch_size,
                "target_copy_every": copy_every, "stored_transitions": len(stored_rows(model.replay_buffer)) * model.n_envs,
                "rewarded_transitions": rewarded_transitions(model, args.reward_threshold),
+               "conservative_weight": model.conservative_weight,
                "loss_first_1000": float(np.mean(losses[:1000])), "loss_last_1000": float(np.mean(losses[-1000:])),
+               "conservative_gap_first_1000": float(np.mean(gaps[:1000])),
+               "conservative_gap_last_1000": float(np.mean(gaps[-1000:])),
                "seconds": round(time.time() - start, 1)}
     (args.out / "offline_updates.json").write_text(json.dumps(summary, indent=1))
     print(json.dumps(summary))

@@ -25,6 +25,13 @@ environment for evaluation.
 
 ``QMapReplayBuffer`` stores depth as float16 (<= 3 m: step <= 2 mm) and the next state's
 masks; SB3's ``optimize_memory_usage`` is not available for Dict observations.
+
+Conservative term (``conservative_weight`` > 0; our addition, off by default): adds
+``weight * (logsumexp_a Q(s, a) - Q(s, a_taken))`` over the allowed actions of the stored
+state to the Huber loss (the discrete CQL(H) regulariser of Kumar et al., 2020). With ~3,000
+arm actions of which a replay has tried few, Double DQN targets still bootstrap from the
+untried ones; the term pushes those down and the taken ones up. The buffer therefore keeps
+each transition's own masks too (the masks the action was chosen under).
 """
 
 from __future__ import annotations
@@ -187,10 +194,13 @@ class QMapReplaySamples(NamedTuple):
     rewards: th.Tensor
     discounts: th.Tensor | None = None
     next_masks: th.Tensor | None = None
+    masks: th.Tensor | None = None
 
 
 class QMapReplayBuffer(DictReplayBuffer):
-    """``DictReplayBuffer`` with float16 ``depth`` and the next state's cell masks per transition."""
+    """``DictReplayBuffer`` with float16 ``depth`` and the state's and next state's cell masks per
+    transition. ``masks`` rows are written by ``RelmogenDQN._store_transition`` (the masks the
+    action was chosen under); rows added directly with ``add`` keep every cell allowed."""
 
     def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Discrete,
                  *args: Any, **kwargs: Any):
@@ -200,13 +210,17 @@ class QMapReplayBuffer(DictReplayBuffer):
                 store["depth"] = np.zeros(store["depth"].shape, dtype=np.float16)
         q = map_side(int(action_space.n))
         self.next_masks = np.ones((self.buffer_size, self.n_envs, len(MASK_KEYS), q, q), dtype=bool)
+        self.masks = np.ones_like(self.next_masks)
 
     def __setstate__(self, state: dict) -> None:
-        """Buffers saved before arm masks kept only base masks: their arm cells load as allowed."""
+        """Older buffers load too: without arm masks their arm cells are allowed; without the
+        state's own masks they are taken from the previous transition's next masks."""
         if "next_base_masks" in state:
             base = state.pop("next_base_masks")
             state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
         self.__dict__.update(state)
+        if "masks" not in state:
+            self.masks = masks_before(self.next_masks, self.dones, self.pos, self.full)
 
     def add(self, obs, next_obs, action, reward, done, infos) -> None:
         self.next_masks[self.pos] = masks_from_infos(infos, self.next_masks.shape[-1])
@@ -215,7 +229,7 @@ class QMapReplayBuffer(DictReplayBuffer):
     def nbytes(self) -> int:
         """Bytes held by the stored arrays."""
         arrays = [*self.observations.values(), *self.next_observations.values(), self.actions, self.rewards,
-                  self.dones, self.timeouts, self.next_masks]
+                  self.dones, self.timeouts, self.next_masks, self.masks]
         return int(sum(array.nbytes for array in arrays))
 
     def _batch(self, store: dict[str, np.ndarray], rows, envs, env) -> TensorDict:
@@ -234,7 +248,17 @@ class QMapReplayBuffer(DictReplayBuffer):
             dones=self.to_torch(dones).reshape(-1, 1),
             rewards=self.to_torch(rewards),
             next_masks=self.to_torch(self.next_masks[batch_inds, envs]),
+            masks=self.to_torch(self.masks[batch_inds, envs]),
         )
+
+
+def masks_before(next_masks: np.ndarray, dones: np.ndarray, pos: int, full: bool) -> np.ndarray:
+    """Each row's own masks rebuilt from the previous row's next masks (rows are consecutive
+    steps of each environment); after an episode end, and for the oldest row, every cell."""
+    previous = np.roll(next_masks, 1, axis=0)
+    known = ~np.roll(dones.astype(bool), 1, axis=0)
+    known[pos if full else 0] = False
+    return np.where(known[:, :, None, None, None], previous, True)
 
 
 # --------------------------------------------------------------------- algorithm
@@ -247,10 +271,11 @@ class RelmogenDQN(DQN):
                  gamma: float = 0.99, target_update_interval: int = 1024, tau: float = 1.0,
                  max_grad_norm: float = 10.0, exploration_initial_eps: float = 0.8,
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
-                 replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
+                 conservative_weight: float = 0.0, replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
         self.mask_arm = bool(mask_arm)
         self.exploration_steps = exploration_steps
+        self.conservative_weight = float(conservative_weight)
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -260,6 +285,9 @@ class RelmogenDQN(DQN):
     def _setup_model(self) -> None:
         self.subgoal_parts = tuple(self.subgoal_parts)  # ``load`` restores it from JSON as a list
         super()._setup_model()
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_acting_masks"]
 
     @staticmethod
     def _wrap_env(env, verbose: int = 0, monitor_wrapper: bool = True) -> VecEnv:
@@ -297,12 +325,17 @@ class RelmogenDQN(DQN):
             self.logger.record("rollout/exploration_rate", self.exploration_rate)
 
     def _sample_action(self, learning_starts: int, action_noise=None, n_envs: int = 1):
-        masks = self.tracked_masks(n_envs)
+        masks = self._acting_masks = self.tracked_masks(n_envs)
         if self.num_timesteps < learning_starts:
             action = sample_allowed(self.allowed(masks, n_envs).cpu().numpy())
         else:
             action, _ = self.predict(self._last_obs, deterministic=False, masks=masks)
         return action, action
+
+    def _store_transition(self, replay_buffer, buffer_action, new_obs, reward, dones, infos) -> None:
+        if isinstance(replay_buffer, QMapReplayBuffer):  # ``add`` writes its row at ``pos``
+            replay_buffer.masks[replay_buffer.pos] = self._acting_masks
+        super()._store_transition(replay_buffer, buffer_action, new_obs, reward, dones, infos)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False,
                 masks: np.ndarray | None = None):
@@ -334,18 +367,29 @@ class RelmogenDQN(DQN):
     def train(self, gradient_steps: int, batch_size: int = 100) -> None:
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
-        losses = [self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env))
-                  for _ in range(gradient_steps)]
+        losses = np.array([self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env))
+                           for _ in range(gradient_steps)])
         self._n_updates += gradient_steps
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
-        self.logger.record("train/loss", float(np.mean(losses)))
+        self.logger.record("train/loss", float(losses[:, 0].mean()))
+        if self.conservative_weight:
+            self.logger.record("train/conservative_gap", float(losses[:, 1].mean()))
 
-    def _gradient_step(self, data) -> float:
+    def conservative_gap(self, q_values: th.Tensor, taken: th.Tensor, masks: th.Tensor | None) -> th.Tensor:
+        """Mean over the batch of logsumexp over allowed actions of Q(s, .) minus Q(s, a_taken)."""
+        allowed = self.allowed(masks, q_values.shape[0])
+        return (q_values.masked_fill(~allowed, -th.inf).logsumexp(dim=1, keepdim=True) - taken).mean()
+
+    def _gradient_step(self, data) -> tuple[float, float]:
+        """One update; returns (Huber TD loss, conservative gap)."""
         targets = self.double_dqn_targets(data)
-        current = self.q_net(data.observations).gather(1, data.actions.long())
-        loss = F.smooth_l1_loss(current, targets)
+        q_values = self.q_net(data.observations)
+        current = q_values.gather(1, data.actions.long())
+        td_loss = F.smooth_l1_loss(current, targets)
+        gap = self.conservative_gap(q_values, current, data.masks) if self.conservative_weight else th.zeros(())
+        loss = td_loss + self.conservative_weight * gap
         self.policy.optimizer.zero_grad()
         loss.backward()
         th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
         self.policy.optimizer.step()
-        return loss.item()
+        return td_loss.item(), gap.item()

@@ -54,6 +54,7 @@ class AlgoConfig(_Strict):
     exploration_initial_eps: float | None = Field(None, ge=0, le=1)
     exploration_final_eps: float | None = Field(None, ge=0, le=1)
     exploration_steps: int | None = Field(None, ge=1)  # linear epsilon decay length (our choice)
+    conservative_weight: float | None = Field(None, ge=0)  # CQL-style term on untried actions; 0 = off (ours)
     mask_arm: bool | None = None  # mask arm pixels without depth or beyond reach (default on; our choice)
     qmap_widths: list[int] | None = None
     qmap_head_width: int | None = None
@@ -131,10 +132,10 @@ def resolve_config(task: str, algo: str, seed: int = 0, preset: str = "cpu", epi
 RESUMABLE_ALGO_KEYS = frozenset({
     "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
     "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-    "exploration_steps",
+    "exploration_steps", "conservative_weight",
 })
 DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
-                           "exploration_final_eps", "exploration_steps"})
+                           "exploration_final_eps", "exploration_steps", "conservative_weight"})
 
 
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:

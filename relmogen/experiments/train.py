@@ -92,7 +92,7 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
                      (("widths", params.qmap_widths), ("head_width", params.qmap_head_width)) if value is not None}
     optional = {key: getattr(params, key) for key in
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-                 "exploration_steps", "mask_arm") if getattr(params, key) is not None}
+                 "exploration_steps", "conservative_weight", "mask_arm") if getattr(params, key) is not None}
     return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                        batch_size=params.batch_size, gamma=params.gamma, learning_starts=params.learning_starts,
                        train_freq=params.train_freq, gradient_steps=params.gradient_steps, tau=params.tau,

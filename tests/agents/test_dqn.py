@@ -14,6 +14,7 @@ from relmogen.agents.dqn import (
     RelmogenDQN,
     allowed_actions,
     env_policy,
+    masks_before,
 )
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.envs.relmogen_env import RelmogenEnv
@@ -130,6 +131,46 @@ def test_double_dqn_target_uses_online_argmax_and_target_value(model):
     assert not th.allclose(targets, vanilla)  # the test tells Double DQN from plain DQN
 
 
+def conservative_batch(model, n: int = 6) -> QMapReplaySamples:
+    """Transitions whose taken actions are allowed (different ones), ending with reward 0."""
+    masks = th.as_tensor(few_free_cells(n, arm_cells=((2, 3), (9, 9))))
+    allowed = allowed_actions(masks, model.subgoal_parts)
+    actions = th.stack([allowed[b].nonzero().ravel()[7 * b] for b in range(n)]).reshape(-1, 1)
+    return QMapReplaySamples(observations=random_batch(model.observation_space, n, seed=3), actions=actions,
+                             next_observations=random_batch(model.observation_space, n, seed=4),
+                             dones=th.ones(n, 1), rewards=th.zeros(n, 1), next_masks=masks, masks=masks)
+
+
+def test_conservative_gap_is_logsumexp_over_allowed_actions_minus_the_taken_one(model):
+    data = conservative_batch(model)
+    with th.no_grad():
+        q_values = model.q_net(data.observations)
+        taken = q_values.gather(1, data.actions)
+        gap = model.conservative_gap(q_values, taken, data.masks)
+    allowed = allowed_actions(data.masks, model.subgoal_parts)
+    expected = np.mean([float(th.logsumexp(q_values[b][allowed[b]], 0) - taken[b]) for b in range(len(taken))])
+    assert float(gap) == pytest.approx(expected, rel=1e-5)
+    everything = model.conservative_gap(q_values, taken, th.ones_like(data.masks))
+    assert float(everything) > float(gap)  # masked cells are left out of the logsumexp
+
+
+def test_conservative_updates_lower_untried_actions_below_the_taken_ones():
+    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
+                      policy_kwargs=SMALL_NET, seed=0, conservative_weight=5.0, learning_rate=3e-3)
+    dqn.policy.set_training_mode(True)
+    data = conservative_batch(dqn)
+    gaps = [dqn._gradient_step(data)[1] for _ in range(30)]
+    with th.no_grad():
+        q_values = dqn.q_net(data.observations)
+    allowed = allowed_actions(data.masks, dqn.subgoal_parts)
+    dqn.env.close()
+    assert min(gaps) >= 0 and gaps[-1] < gaps[0] - 1.0  # from about log(60 allowed actions) = 4.1
+    for b, action in enumerate(data.actions.ravel()):
+        others = allowed[b].clone()
+        others[action] = False
+        assert q_values[b, action] > q_values[b][others].mean() + 1.0
+
+
 # ------------------------------------------------------------- (c) masked exploration
 def assert_base_actions_free(actions: np.ndarray, masks: np.ndarray) -> int:
     """Every base action lies on an allowed base cell and every arm action on an allowed arm
@@ -215,6 +256,23 @@ def test_replay_buffer_stores_depth_as_float16_and_fits_the_paper_buffer():
     assert buffer.nbytes() < 2.5e9  # about 2.33 GB for 1e4 transitions at 128 px
 
 
+def test_masks_of_an_older_buffer_are_rebuilt_from_the_previous_next_masks():
+    rows, q = 5, 2
+    next_masks = np.zeros((rows, 1, 2, q, q), dtype=bool)
+    for row in range(rows):
+        next_masks[row, 0, 0, 0, row % q] = True  # a different mask per row
+    dones = np.array([[0], [1], [0], [0], [0]], dtype=np.float32)
+    masks = masks_before(next_masks, dones, pos=2, full=True)  # row 2 is the oldest
+    np.testing.assert_array_equal(masks[1], next_masks[0])
+    np.testing.assert_array_equal(masks[4], next_masks[3])
+    np.testing.assert_array_equal(masks[0], next_masks[4])  # the ring wraps
+    assert masks[2].all()  # the oldest row: nothing before it
+    np.testing.assert_array_equal(masks[3], next_masks[2])
+    assert masks_before(next_masks, dones, pos=2, full=False)[0].all()  # not full: row 0 is the oldest
+    dones[2] = 1
+    assert masks_before(next_masks, dones, pos=0, full=True)[3].all()  # after an episode end: every cell
+
+
 # ------------------------------------------------------------------- (d) end to end
 class MaskAudit(gym.Wrapper):
     """Counts actions sent to a masked cell according to the latest ``info["base_mask"]`` and
@@ -259,6 +317,10 @@ def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
     assert loaded.replay_buffer.observations["depth"].dtype == np.float16
     np.testing.assert_array_equal(loaded.replay_buffer.next_masks, model.replay_buffer.next_masks)
     assert not model.replay_buffer.next_masks[:200, :, 1].all()  # arm masks were recorded
+    buffer = model.replay_buffer  # each transition keeps the masks its action was chosen under
+    assert_base_actions_free(buffer.actions[:200, 0, 0], buffer.masks[:200, 0])
+    continuing = np.flatnonzero(buffer.dones[:199, 0] == 0) + 1  # rows whose previous step did not end an episode
+    np.testing.assert_array_equal(buffer.masks[continuing], buffer.next_masks[continuing - 1])
     obs = venv.reset()
     np.testing.assert_array_equal(model.predict(obs, deterministic=True)[0], loaded.predict(obs, deterministic=True)[0])
     loaded.learn(20, reset_num_timesteps=False)

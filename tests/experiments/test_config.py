@@ -45,6 +45,7 @@ def test_a_resumed_run_may_change_its_learning_schedule_and_reports_what_changed
                                                 "algo.gamma=0.99", "run.eval_episodes=3"])
     assert changed == {"exploration_final_eps": 0.2, "buffer_size": 50000}  # gamma is unchanged
     assert updated.run.eval_episodes == 3 and updated.env == config.env
+    assert override_config(config, ["algo.conservative_weight=0.5"])[1] == {"conservative_weight": 0.5}
 
 
 @pytest.mark.parametrize("assignment", ["env.image_size=128", "algo.qmap_widths=[8, 8, 8, 8]", "task=PushDoorNav",
@@ -55,7 +56,8 @@ def test_a_resumed_run_refuses_changes_its_checkpoint_cannot_follow(assignment):
         override_config(config, [assignment])
 
 
-def test_a_resumed_run_refuses_a_setting_its_algorithm_does_not_have():
+@pytest.mark.parametrize("assignment", ["algo.exploration_final_eps=0.2", "algo.conservative_weight=1"])
+def test_a_resumed_run_refuses_a_setting_its_algorithm_does_not_have(assignment):
     config = resolve_config("PointNav", "relmogen-r", preset="cpu")
     with pytest.raises(ValueError, match="relmogen-d only"):
-        override_config(config, ["algo.exploration_final_eps=0.2"])
+        override_config(config, [assignment])
