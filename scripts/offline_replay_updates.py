@@ -4,6 +4,10 @@ rewarded pushes? The copy gets a new checkpoint; look at it with ``relmogen viz 
 
     python scripts/offline_replay_updates.py runs/sgpd-button/RUN --updates 20000 --out runs/sgpd-offline/RUN
     python scripts/offline_replay_updates.py RUN --updates 4000 --conservative-weight 1 --out OUT
+
+``--from-scratch`` trains a freshly initialised network on the same replay instead (the
+run's settings, changed by ``--set algo.KEY=VALUE``, e.g. ``algo.qmap_skip=true``): which
+network can learn the stored presses at all, the data held fixed.
     relmogen viz qmap runs/sgpd-offline/RUN --drive oracle --states 16 --out DIR
 
 Target network: copied every ``target_update_interval / (n_envs * train_freq)`` updates, the
@@ -18,14 +22,22 @@ import shutil
 import time
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import torch as th
 from rich.progress import Progress
 
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.replay import stored_rows
-from relmogen.experiments.config import read_config
-from relmogen.experiments.train import latest_checkpoint, write_checkpoint
+from relmogen.experiments.config import read_config, save_config, with_overrides
+from relmogen.experiments.train import build_dqn, latest_checkpoint, write_checkpoint
+
+
+class SpacesOnly(gym.Env):
+    """Carries a saved model's spaces into ``build_dqn``; never reset or stepped."""
+
+    def __init__(self, observation_space: gym.Space, action_space: gym.Space):
+        self.observation_space, self.action_space = observation_space, action_space
 
 
 def copy_run(run: Path, out: Path) -> None:
@@ -45,6 +57,10 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--conservative-weight", type=float, default=None,
                         help="weight of the conservative term during these updates (default: the run's own)")
+    parser.add_argument("--from-scratch", action="store_true",
+                        help="train a freshly initialised network on the run's replay instead of its own")
+    parser.add_argument("--set", action="append", default=[], metavar="algo.KEY=VALUE",
+                        help="with --from-scratch: change the new network's settings (repeatable)")
     parser.add_argument("--reward-threshold", type=float, default=5.0,
                         help="count stored transitions with at least this reward (default 5: a button press)")
     args = parser.parse_args()
@@ -52,6 +68,8 @@ def main() -> None:
         parser.error("--updates must be positive")
     if args.conservative_weight is not None and args.conservative_weight < 0:
         parser.error("--conservative-weight must be at least 0")
+    if args.set and not args.from_scratch:
+        parser.error("--set needs --from-scratch (a checkpoint fixes its network)")
     if args.out.exists():
         parser.error(f"{args.out} exists; choose a new --out")
     config = read_config(args.run / "config.yaml")
@@ -61,6 +79,12 @@ def main() -> None:
     th.set_num_threads(config.run.torch_threads)
     changed = {} if args.conservative_weight is None else {"conservative_weight": args.conservative_weight}
     model = RelmogenDQN.load(checkpoint / "model.zip", device="cpu", **changed)
+    if args.from_scratch:
+        config = with_overrides(config, args.set)
+        fresh = build_dqn(config.model_copy(update={"device": "cpu"}),
+                          SpacesOnly(model.observation_space, model.action_space))
+        fresh.conservative_weight = model.conservative_weight
+        model = fresh
     model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
     params = config.algo_params
     copy_every = max(params.target_update_interval // (config.env.n_envs * params.train_freq), 1)
@@ -76,10 +100,12 @@ def main() -> None:
                 model.q_net_target.load_state_dict(model.q_net.state_dict())
             progress.advance(bar)
     copy_run(args.run, args.out)
+    save_config(config, args.out / "config.yaml")
     state = json.loads((checkpoint / "state.json").read_text())
-    write_checkpoint(args.out, model, dict(state, offline_updates=args.updates))
-    summary = {"run": str(args.run), "updates": args.updates, "batch_size": params.batch_size,
-               "target_copy_every": copy_every, "stored_transitions": len(stored_rows(model.replay_buffer)) * model.n_envs,
+    write_checkpoint(args.out, model, dict(state, offline_updates=args.updates, from_scratch=args.from_scratch))
+    summary = {"run": str(args.run), "updates": args.updates, "from_scratch": args.from_scratch,
+               "settings": args.set, "batch_size": params.batch_size,
+               "target_copy_every": copy_every, "stored_transitions": len(stored_rows(model.replay_buffer)) * model.replay_buffer.n_envs,
                "rewarded_transitions": rewarded_transitions(model, args.reward_threshold),
                "conservative_weight": model.conservative_weight,
                "loss_first_1000": float(np.mean(losses[:1000])), "loss_last_1000": float(np.mean(losses[-1000:])),

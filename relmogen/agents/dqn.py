@@ -151,11 +151,11 @@ class QMapQNetwork(BasePolicy):
     """SB3's ``QNetwork`` interface (``forward`` -> Q values, ``_predict`` -> argmax) over a ``QMapNetwork``."""
 
     def __init__(self, observation_space: spaces.Dict, action_space: spaces.Discrete,
-                 widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128,
+                 widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128, skip: bool = False,
                  normalize_images: bool = False):
         super().__init__(observation_space, action_space, normalize_images=False)  # the net scales its inputs
-        self.widths, self.head_width = tuple(widths), int(head_width)
-        self.net = QMapNetwork(observation_space, self.widths, self.head_width)
+        self.widths, self.head_width, self.skip = tuple(widths), int(head_width), bool(skip)
+        self.net = QMapNetwork(observation_space, self.widths, self.head_width, self.skip)
         if self.net.n_actions != action_space.n:
             raise ValueError(f"Q maps give {self.net.n_actions} actions, the action space has {action_space.n}")
 
@@ -166,23 +166,27 @@ class QMapQNetwork(BasePolicy):
         return self(observation).argmax(dim=1).reshape(-1)
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
-        return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width)
+        return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width,
+                    skip=self.skip)
 
 
 class QMapDQNPolicy(DQNPolicy):
     """``DQNPolicy`` whose ``q_net`` and ``q_net_target`` are ``QMapQNetwork``s (no features extractor)."""
 
     def __init__(self, observation_space: spaces.Dict, action_space: spaces.Discrete, lr_schedule,
-                 widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128, **kwargs: Any):
-        self.widths, self.head_width = tuple(widths), int(head_width)
+                 widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128, skip: bool = False,
+                 **kwargs: Any):
+        self.widths, self.head_width, self.skip = tuple(widths), int(head_width), bool(skip)
         kwargs["normalize_images"] = False
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
 
     def make_q_net(self) -> QMapQNetwork:
-        return QMapQNetwork(self.observation_space, self.action_space, self.widths, self.head_width).to(self.device)
+        return QMapQNetwork(self.observation_space, self.action_space, self.widths, self.head_width,
+                            self.skip).to(self.device)
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
-        return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width)
+        return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width,
+                    skip=self.skip)
 
 
 # ------------------------------------------------------------------ replay buffer

@@ -58,6 +58,7 @@ class AlgoConfig(_Strict):
     mask_arm: bool | None = None  # mask arm pixels without depth or beyond reach (default on; our choice)
     qmap_widths: list[int] | None = None
     qmap_head_width: int | None = None
+    qmap_skip: bool | None = None  # S/4 branch features into the Q-map head (U-Net style; ours, default off)
 
 
 class RunSettings(_Strict):
@@ -121,10 +122,23 @@ def resolve_config(task: str, algo: str, seed: int = 0, preset: str = "cpu", epi
     }
     for assignment in overrides:
         _apply_override(tree, assignment)
+    return _validated(tree)
+
+
+def _validated(tree: dict) -> TrainConfig:
     try:
         return TrainConfig.model_validate(tree)
     except ValidationError as error:
         raise ValueError(f"invalid configuration:\n{error}") from error
+
+
+def with_overrides(config: TrainConfig, overrides: list[str]) -> TrainConfig:
+    """``config`` with any ``section.key=value`` overrides (for a new model; a resumed run uses
+    ``override_config``, which refuses what its checkpoint cannot follow)."""
+    tree = config.model_dump()
+    for assignment in overrides:
+        _apply_override(tree, assignment)
+    return _validated(tree)
 
 
 # What a resumed run may change: the learning schedule and the run's bookkeeping. The rest fixes
@@ -155,10 +169,7 @@ def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainCon
         if section[-1] in DQN_ONLY_KEYS and config.algo != "relmogen-d":
             raise ValueError(f"{section[-1]} applies to relmogen-d only, not to this {config.algo} run")
         _apply_override(tree, assignment)
-    try:
-        updated = TrainConfig.model_validate(tree)
-    except ValidationError as error:
-        raise ValueError(f"invalid configuration:\n{error}") from error
+    updated = _validated(tree)
     before, after = config.algo_params.model_dump(), updated.algo_params.model_dump()
     return updated, {key: after[key] for key in after if after[key] != before[key]}
 

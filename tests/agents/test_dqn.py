@@ -73,11 +73,13 @@ def test_decode_encode_round_trip(model):
         assert control.encode(*control.decode(int(index))) == index
 
 
-def test_flat_q_values_follow_the_env_index_order(model):
+@pytest.mark.parametrize("skip", [False, True])
+def test_flat_q_values_follow_the_env_index_order(model, skip):
     control = model.env.unwrapped.envs[0].unwrapped.control
-    net = model.q_net.net
+    net = QMapNetwork(model.observation_space, **SMALL_NET, skip=skip)
+    last_layer = net.head[-1] if not skip else net.head["out"][-1]
     captured = {}
-    handle = net.head.register_forward_hook(lambda module, inputs, output: captured.update(maps=output))
+    handle = last_layer.register_forward_hook(lambda module, inputs, output: captured.update(maps=output))
     obs = random_batch(model.observation_space, 3)
     with th.no_grad():
         q_values = net(obs)
@@ -88,6 +90,18 @@ def test_flat_q_values_follow_the_env_index_order(model):
         part, bin_, i, j = control.decode(int(index))
         channel = bin_ if part == "base" else YAW_BINS + bin_
         assert th.equal(q_values[:, index], maps[:, channel, i, j])
+
+
+def test_skip_connections_survive_save_and_load(tmp_path):
+    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, learning_starts=0,
+                      policy_kwargs=dict(SMALL_NET, skip=True), seed=0)
+    dqn.save(tmp_path / "model.zip")
+    loaded = RelmogenDQN.load(tmp_path / "model.zip")
+    dqn.env.close()
+    assert loaded.q_net.net.skip and loaded.q_net_target.net.skip
+    obs = random_batch(dqn.observation_space, 2)
+    with th.no_grad():
+        assert th.equal(dqn.q_net(obs), loaded.q_net(obs))
 
 
 def test_channels_last_and_channels_first_observations_agree():

@@ -1,0 +1,74 @@
+"""Where did an SGP-D ButtonDoorNav run push, according to its own replay buffer?
+
+For every stored arm push, looks at the RGB observation it was chosen on: was the button cap
+(red: R > 100, G < 60, B < 60, the only red in ButtonDoorNav) in view, and did the pushed
+Q-map cell (its 4 x 4 pixel block) contain cap pixels? Prints one Markdown row per run:
+pushes with the cap in view, pushes on the cap, and which of them were rewarded by a press
+(reward >= 5: the +5 button reward, or +10 success).
+
+    python scripts/replay_button_pushes.py runs/sgpd-button/ButtonDoorNav__*
+"""
+
+from __future__ import annotations
+
+import argparse
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+from relmogen.agents.replay import stored_rows
+from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS
+from relmogen.experiments.train import latest_checkpoint
+
+PRESS_REWARD = 5.0
+
+
+def cap_cells(rgb: np.ndarray) -> np.ndarray:
+    """(N, 3, S, S) or (N, S, S, 3) uint8 -> (N, Q, Q) bool: cells holding button-cap pixels."""
+    if rgb.shape[1] == 3:
+        rgb = rgb.transpose(0, 2, 3, 1)
+    red = (rgb[..., 0] > 100) & (rgb[..., 1] < 60) & (rgb[..., 2] < 60)
+    n, size = red.shape[0], red.shape[1]
+    q = size // Q_DOWNSAMPLE
+    return red.reshape(n, q, Q_DOWNSAMPLE, q, Q_DOWNSAMPLE).any(axis=(2, 4))
+
+
+def push_counts(replay) -> dict[str, int]:
+    rows = stored_rows(replay)
+    rgb = replay.observations["rgb"][rows]  # (rows, envs, ...)
+    rgb = rgb.reshape(-1, *rgb.shape[2:])
+    actions = replay.actions[rows].reshape(-1).astype(int)
+    rewards = replay.rewards[rows].reshape(-1)
+    cells = cap_cells(rgb)
+    q = cells.shape[1]
+    arm = actions >= YAW_BINS * q * q
+    _, i, j = np.unravel_index(np.where(arm, actions - YAW_BINS * q * q, 0), (PUSH_BINS, q, q))
+    in_view = cells.any(axis=(1, 2))
+    on_cap = arm & cells[np.arange(len(actions)), i, j]
+    pressed = rewards >= PRESS_REWARD
+    return {"transitions": len(actions), "arm pushes": int(arm.sum()), "cap in view": int((arm & in_view).sum()),
+            "on the cap": int(on_cap.sum()), "on the cap, rewarded": int((on_cap & pressed).sum()),
+            "elsewhere, rewarded": int((arm & ~on_cap & pressed).sum())}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", nargs="+", type=Path)
+    args = parser.parse_args()
+    header = None
+    for run in args.runs:
+        checkpoint = latest_checkpoint(run)
+        if checkpoint is None:
+            raise SystemExit(f"{run} has no checkpoint with a replay buffer")
+        with open(checkpoint / "replay_buffer.pkl", "rb") as file:
+            counts = push_counts(pickle.load(file))
+        if header is None:
+            header = list(counts)
+            print("| run | " + " | ".join(header) + " |")
+            print("|---" * (len(header) + 1) + "|")
+        print(f"| {run.name} | " + " | ".join(f"{counts[key]:,}" for key in header) + " |")
+
+
+if __name__ == "__main__":
+    main()
