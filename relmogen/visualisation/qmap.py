@@ -17,8 +17,9 @@ Which states: ``drive="greedy"`` follows the policy itself and draws every ``str
 A young policy rarely reaches the button or a cabinet, so ``drive="oracle"`` lets the task's
 scripted oracle drive instead and draws the state before each of its pushes, with the cell the
 oracle reaches for outlined in cyan; ``oracle_cells.json`` then records where that cell ranks
-in the learned arm Q map (percentile among the allowed cells): does the policy value the
-button or the cabinet front where it matters?
+in the learned arm Q map (percentile among the allowed cells), and where the 3 x 3 cells
+around it rank among all such squares: does the policy value the button or the cabinet front
+where it matters, or at least its surroundings?
 """
 
 from __future__ import annotations
@@ -70,6 +71,20 @@ class QMapState:
             return None
         allowed = values[np.isfinite(values)]
         return float(100.0 * np.mean(allowed < value))
+
+    def arm_area_percentile(self, cell: tuple[int, int], radius: int = 1) -> float | None:
+        """Like ``arm_percentile`` for the mean over the allowed cells of the (2 radius + 1)^2
+        square around ``cell``, ranked among the same squares around every allowed cell: does
+        the map value the object's surroundings, where pushes that brush it start?"""
+        values = self.arm_values()
+        allowed = np.isfinite(values)
+        if not allowed[cell]:
+            return None
+        side = 2 * radius + 1
+        sums = np.lib.stride_tricks.sliding_window_view(np.pad(np.where(allowed, values, 0.0), radius), (side, side))
+        counts = np.lib.stride_tricks.sliding_window_view(np.pad(allowed, radius), (side, side))
+        means = sums.sum(axis=(-2, -1)) / counts.sum(axis=(-2, -1))
+        return float(100.0 * np.mean(means[allowed] < means[cell]))
 
 
 def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
@@ -245,13 +260,18 @@ def _oracle_record(state: QMapState, episode: int) -> dict:
     return {"episode": episode, "step": state.step, "oracle_cell": list(state.marked_cell),
             "oracle_cell_allowed": bool(state.masks[1][state.marked_cell]),
             "oracle_cell_percentile": state.arm_percentile(state.marked_cell),
+            "oracle_area_percentile": state.arm_area_percentile(state.marked_cell),
             "greedy_part": part, "greedy_is_oracle_cell": part == "arm" and (i, j) == state.marked_cell}
 
 
 def _write_oracle_summary(path: Path, records: list[dict]) -> None:
-    percentiles = [r["oracle_cell_percentile"] for r in records if r["oracle_cell_percentile"] is not None]
+    def mean_of(key: str) -> float | None:
+        values = [r[key] for r in records if r[key] is not None]
+        return float(np.mean(values)) if values else None
+
     summary = {"pushes": len(records), "oracle_cell_allowed": sum(r["oracle_cell_allowed"] for r in records),
-               "mean_percentile": float(np.mean(percentiles)) if percentiles else None,
+               "mean_percentile": mean_of("oracle_cell_percentile"),
+               "mean_area_percentile": mean_of("oracle_area_percentile"),
                "greedy_arm": sum(r["greedy_part"] == "arm" for r in records),
                "greedy_is_oracle_cell": sum(r["greedy_is_oracle_cell"] for r in records), "states": records}
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -88,6 +88,20 @@ def test_arm_percentile_ranks_among_allowed_cells_only():
     assert state.arm_percentile((1, 0)) is None
 
 
+def test_area_percentile_ranks_the_surroundings_of_a_cell():
+    q = np.zeros((YAW_BINS + 12, 5, 5))
+    q[YAW_BINS:, 1:4, 1:4] = 5.0  # a high ring around a low centre
+    q[YAW_BINS:, 2, 2] = -1.0
+    masks = np.ones((2, 5, 5), dtype=bool)
+    masks[1, 0, 0] = False
+    state = QMapState(np.zeros((20, 20, 3), np.uint8), np.zeros((20, 20, 1), np.uint8), q, masks,
+                      ("base", "arm"), ("arm", 0, 2, 2), step=0)
+    assert state.arm_percentile((2, 2)) == 0.0  # the lowest cell of the map
+    assert state.arm_area_percentile((2, 2)) > 90.0  # 8 of its 9 cells are the highest
+    assert state.arm_area_percentile((4, 4)) == 0.0  # a corner square: 1 high cell of 4
+    assert state.arm_area_percentile((0, 0)) is None
+
+
 def test_unknown_driver_is_refused(model_and_env, tmp_path):
     model, env = model_and_env
     with pytest.raises(ValueError, match="unknown drive"):
