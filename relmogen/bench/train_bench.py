@@ -80,8 +80,8 @@ def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0) ->
         result["shared_encoder_speedup"] = round(result["updates_per_s"] / result["stock_sb3_sac_updates_per_s"], 3)
     if algo == "relmogen-d":
         buffer = model.replay_buffer
-        result["replay_gib_per_1e4_transitions"] = round(buffer.nbytes() / buffer.buffer_size * 1e4 / 2**30, 3)
-        result["replay_gib_at_preset_size"] = round(buffer.nbytes() / 2**30, 3)
+        result["replay_gib_per_1e4_transitions"] = round(buffer.nbytes() / buffer.buffer_size * 1e4 / 2**30, 4)
+        result["replay_gib_at_preset_size"] = round(buffer.nbytes() / 2**30, 4)
     env.close()
     return result
 
