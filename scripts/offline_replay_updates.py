@@ -4,11 +4,12 @@ rewarded pushes? The copy gets a new checkpoint; look at it with ``relmogen viz 
 
     python scripts/offline_replay_updates.py runs/sgpd-button/RUN --updates 20000 --out runs/sgpd-offline/RUN
     python scripts/offline_replay_updates.py RUN --updates 4000 --conservative-weight 1 --out OUT
+    relmogen viz qmap runs/sgpd-offline/RUN --drive oracle --states 16 --out DIR
 
 ``--from-scratch`` trains a freshly initialised network on the same replay instead (the
 run's settings, changed by ``--set algo.KEY=VALUE``, e.g. ``algo.qmap_skip=true``): which
-network can learn the stored presses at all, the data held fixed.
-    relmogen viz qmap runs/sgpd-offline/RUN --drive oracle --states 16 --out DIR
+network can learn the stored presses at all, the data held fixed. The copy's ``config.yaml``
+records what changed, so it can be resumed with ``relmogen train --resume``.
 
 Target network: copied every ``target_update_interval / (n_envs * train_freq)`` updates, the
 same number of updates between copies as in training.
@@ -77,14 +78,13 @@ def main() -> None:
     if config.algo != "relmogen-d" or checkpoint is None:
         raise SystemExit(f"{args.run} is not a relmogen-d run with a checkpoint")
     th.set_num_threads(config.run.torch_threads)
-    changed = {} if args.conservative_weight is None else {"conservative_weight": args.conservative_weight}
-    model = RelmogenDQN.load(checkpoint / "model.zip", device="cpu", **changed)
+    weight = [] if args.conservative_weight is None else [f"algo.conservative_weight={args.conservative_weight}"]
+    config = with_overrides(config, [*args.set, *weight])
+    model = RelmogenDQN.load(checkpoint / "model.zip", device="cpu",
+                             conservative_weight=config.algo_params.conservative_weight or 0.0)
     if args.from_scratch:
-        config = with_overrides(config, args.set)
-        fresh = build_dqn(config.model_copy(update={"device": "cpu"}),
+        model = build_dqn(config.model_copy(update={"device": "cpu"}),
                           SpacesOnly(model.observation_space, model.action_space))
-        fresh.conservative_weight = model.conservative_weight
-        model = fresh
     model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
     params = config.algo_params
     copy_every = max(params.target_update_interval // (config.env.n_envs * params.train_freq), 1)
@@ -105,7 +105,8 @@ def main() -> None:
     write_checkpoint(args.out, model, dict(state, offline_updates=args.updates, from_scratch=args.from_scratch))
     summary = {"run": str(args.run), "updates": args.updates, "from_scratch": args.from_scratch,
                "settings": args.set, "batch_size": params.batch_size,
-               "target_copy_every": copy_every, "stored_transitions": len(stored_rows(model.replay_buffer)) * model.replay_buffer.n_envs,
+               "target_copy_every": copy_every,
+               "stored_transitions": len(stored_rows(model.replay_buffer)) * model.replay_buffer.n_envs,
                "rewarded_transitions": rewarded_transitions(model, args.reward_threshold),
                "conservative_weight": model.conservative_weight,
                "loss_first_1000": float(np.mean(losses[:1000])), "loss_last_1000": float(np.mean(losses[-1000:])),

@@ -9,8 +9,9 @@ yaw bin), channels 12..23 the K arm maps (one per push direction).
 With ``skip`` (our addition, off by default) the head also sees the two branches' S/4
 features, U-Net style: the second deconvolution keeps ``head_width`` channels, is concatenated
 with the image and map features after their second conv (already at Q x Q), and two 1x1
-convolutions give the maps (a 3x3 one made updates 1.8x slower than without the skip). A 4 x 4 bottleneck at 64 px (S/16) has to place a 1-2 cell
-button from 16 x 16 px features; the skip gives each cell its own local features.
+convolutions give the maps (a 3x3 one made updates 1.8x slower than without the skip; the
+1x1 pair, 1.2x). A 4 x 4 bottleneck at 64 px (S/16) has to place a 1-2 cell button from
+16 x 16 px features; the skip gives each cell its own local features.
 
 ``QMapNetwork.forward`` flattens the maps in the environment's ``Discrete`` index order
 (``relmogen/envs/subgoal_controls.py``): ``l * Q*Q + i * Q + j`` for base actions and
