@@ -65,12 +65,7 @@ class QMapState:
 
     def arm_percentile(self, cell: tuple[int, int]) -> float | None:
         """Share (0-100) of allowed arm cells valued below ``cell``; None if ``cell`` is masked."""
-        values = self.arm_values()
-        value = values[cell]
-        if not np.isfinite(value):
-            return None
-        allowed = values[np.isfinite(values)]
-        return float(100.0 * np.mean(allowed < value))
+        return self.arm_area_percentile(cell, radius=0)
 
     def arm_area_percentile(self, cell: tuple[int, int], radius: int = 1) -> float | None:
         """Like ``arm_percentile`` for the mean over the allowed cells of the (2 radius + 1)^2
@@ -82,10 +77,9 @@ class QMapState:
             return None
         side = 2 * radius + 1
         sums = np.lib.stride_tricks.sliding_window_view(np.pad(np.where(allowed, values, 0.0), radius), (side, side))
-        counts = np.lib.stride_tricks.sliding_window_view(np.pad(allowed, radius), (side, side))
-        means = sums.sum(axis=(-2, -1)) / counts.sum(axis=(-2, -1))
+        counts = np.lib.stride_tricks.sliding_window_view(np.pad(allowed, radius), (side, side)).sum(axis=(-2, -1))
+        means = np.divide(sums.sum(axis=(-2, -1)), counts, out=np.full(counts.shape, np.nan), where=counts > 0)
         return float(100.0 * np.mean(means[allowed] < means[cell]))
-
 
 def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
     control = env.unwrapped.control
