@@ -19,6 +19,7 @@ import torch as th
 from relmogen.agents.dqn import (PUSH_BINS, YAW_BINS, allowed_actions, info_masks, map_side, sample_allowed,
                                  without_arm_mask)
 from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.envs.subgoal_controls import PUSH_FRAMES
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
 
@@ -44,9 +45,10 @@ def main() -> None:
     parser.add_argument("--image-size", type=int, default=64)
     parser.add_argument("--mask-arm", action=argparse.BooleanOptionalAction, default=True,
                         help="sample only arm pixels with depth within the arm's reach (relmogen-d's default)")
+    parser.add_argument("--push-frame", choices=PUSH_FRAMES, default="base", help="env.push_frame of relmogen-d")
     args = parser.parse_args()
     np.random.seed(0)
-    env = RelmogenEnv(task=args.task, control="subgoal-d", image_size=args.image_size)
+    env = RelmogenEnv(task=args.task, control="subgoal-d", image_size=args.image_size, push_frame=args.push_frame)
     q, parts = map_side(env.action_space.n), task_class(args.task).subgoal_parts
     assert env.action_space.n == (YAW_BINS + PUSH_BINS) * q * q
 
@@ -60,7 +62,8 @@ def main() -> None:
         records = run_episodes(env, act, args.episodes, seed=100_000, quiet=True)
     finally:
         env.close()
-    print(json.dumps({"task": args.task, "sampler": args.sampler, "mask_arm": args.mask_arm, **aggregate(records)}))
+    print(json.dumps({"task": args.task, "sampler": args.sampler, "mask_arm": args.mask_arm,
+                      "push_frame": args.push_frame, **aggregate(records)}))
 
 
 if __name__ == "__main__":

@@ -11,14 +11,21 @@
         centre of cell (i, j) of the 5 m local map (i along x forward, j along y left, as in
         ``LocalMap``) with final yaw -pi + l * 2pi / L in the robot frame.
     index in [L*Q*Q, (L+K)*Q*Q): arm map; (k, i, j) = unravel(index - L*Q*Q, (K, Q, Q)); the
-        image pixel (row 4i + 2, column 4j + 2) with a push of ``push_length`` m in base-frame
-        direction k * 2pi / K.
+        image pixel (row 4i + 2, column 4j + 2) with a horizontal push of ``push_length`` m in
+        direction k, which depends on ``push_frame``:
+          ``base`` (the paper's): base-frame heading k * 2pi / K;
+          ``surface`` (ours): heading -pi/2 + (k + 1/2) pi / K from the inward horizontal normal
+          of the surface seen at the pixel, so every bin pushes into it, at 15 deg steps.
+          Cells whose surface is not steep (normal more than 45 deg from horizontal: floor,
+          table tops) or whose normal is undefined are masked: no horizontal push goes into
+          them.
     The observation adds ``local_map`` (S, S, C) uint8: channel 0 the occupancy map
     (FREE 0 / UNKNOWN 128 / OCCUPIED 255), and for navigation tasks channel 1 with the goal
     (255) and the shortest-path waypoints (128) drawn on it. ``info["base_mask"]`` is a
     (Q, Q) bool array of base cells where the robot's footprint is free on the map;
     ``info["arm_mask"]`` a (Q, Q) bool array of arm cells whose pixel has depth and sees a point
-    within the robot's ``arm_reach`` of its first arm joint (beyond it no plan is ever found).
+    within the robot's ``arm_reach`` of its first arm joint (beyond it no plan is ever found),
+    and with ``push_frame="surface"`` a steep surface.
 
 Rewards are the sum of the low-level (0.1 s) rewards accrued while the subgoal executed.
 When no plan is found the step is a no-op: nothing moves, the reward is 0, and it counts.
@@ -32,7 +39,7 @@ import numpy as np
 from gymnasium import spaces
 
 from relmogen.envs.controls import Control, StepOutcome, validate_action
-from relmogen.motion_generation.base_planner import FootprintChecker
+from relmogen.motion_generation.base_planner import FootprintChecker, wrap_angle
 from relmogen.motion_generation.generator import MotionGenerator, MotionGeneratorConfig, SubgoalResult
 
 if TYPE_CHECKING:
@@ -43,6 +50,8 @@ PUSH_MAX = 0.25
 YAW_BINS = 12  # L
 PUSH_BINS = 12  # K
 Q_DOWNSAMPLE = 4
+PUSH_FRAMES = ("base", "surface")
+STEEP_NORMAL = np.cos(np.deg2rad(45.0))  # least horizontal part of a unit normal a push can go into
 
 
 class RewardAccumulator:
@@ -107,6 +116,29 @@ class SubgoalControl(Control):
         result = self.mg.reach_and_push(point, push_world, env.np_random, rewards.tick)
         return result, rewards.close()
 
+    def decode_continuous(self, action) -> tuple[str, tuple]:
+        """A ``subgoal-r`` action -> ("base", (robot-frame goal x, y, yaw change),) or
+        ("arm", (pixel row, pixel column, base-frame push vector))."""
+        a = np.clip(validate_action(action, (8,)), -1.0, 1.0)
+        if self.uses_base(a):
+            angle, distance = a[1] * BASE_ANGLE_RANGE, a[2] + 1.0
+            return "base", (np.array([distance * np.cos(angle), distance * np.sin(angle), a[3] * np.pi]),)
+        push = a[6:8] * PUSH_MAX
+        norm = float(np.linalg.norm(push))
+        if norm > PUSH_MAX:
+            push *= PUSH_MAX / norm
+        return "arm", (*self.arm_pixel(a), push)
+
+    def uses_base(self, action: np.ndarray) -> bool:
+        return self.parts == ("base",) or (self.parts != ("arm",) and action[0] > 0.0)
+
+    def arm_pixel(self, action: np.ndarray) -> tuple[int, int]:
+        """(row, col) of the image pixel a ``subgoal-r`` arm action reaches for."""
+        height, width = self.env.last_frame.depth.shape
+        row = min(int((action[4] + 1.0) / 2.0 * height), height - 1)
+        col = min(int((action[5] + 1.0) / 2.0 * width), width - 1)
+        return row, col
+
     def outcome(self, result: SubgoalResult, rewards: RewardAccumulator, **extra: Any) -> StepOutcome:
         task = self.env.task
         termination = "success" if task.terminates_on_success() and task.is_success() else None
@@ -122,44 +154,29 @@ class SubgoalRControl(SubgoalControl):
         self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
 
     def step(self, action) -> StepOutcome:
-        a = np.clip(validate_action(action, (8,)), -1.0, 1.0)
-        if self.uses_base(a):
-            angle, distance = a[1] * BASE_ANGLE_RANGE, a[2] + 1.0
-            goal = np.array([distance * np.cos(angle), distance * np.sin(angle), a[3] * np.pi])
-            return self.outcome(*self.execute_base(goal))
-        row, col = self.arm_pixel(a)
-        push = a[6:8] * PUSH_MAX
-        norm = float(np.linalg.norm(push))
-        if norm > PUSH_MAX:
-            push *= PUSH_MAX / norm
-        return self.outcome(*self.execute_arm(row, col, push))
-
-    def uses_base(self, action: np.ndarray) -> bool:
-        return self.parts == ("base",) or (self.parts != ("arm",) and action[0] > 0.0)
-
-    def arm_pixel(self, action: np.ndarray) -> tuple[int, int]:
-        """(row, col) of the image pixel an arm action reaches for."""
-        height, width = self.env.last_frame.depth.shape
-        row = min(int((action[4] + 1.0) / 2.0 * height), height - 1)
-        col = min(int((action[5] + 1.0) / 2.0 * width), width - 1)
-        return row, col
+        part, target = self.decode_continuous(action)
+        return self.outcome(*(self.execute_base(*target) if part == "base" else self.execute_arm(*target)))
 
 
 class SubgoalDControl(SubgoalControl):
     name = "subgoal-d"
 
-    def __init__(self, env: RelmogenEnv, push_length: float = PUSH_MAX, **options: Any):
+    def __init__(self, env: RelmogenEnv, push_length: float = PUSH_MAX, push_frame: str = "base",
+                 **options: Any):
+        if push_frame not in PUSH_FRAMES:
+            raise ValueError(f"unknown push_frame {push_frame!r}; valid: {', '.join(PUSH_FRAMES)}")
         super().__init__(env, **options)
         size = env.camera.intrinsics.width
         if size % Q_DOWNSAMPLE:
             raise ValueError(f"subgoal-d needs an image size divisible by {Q_DOWNSAMPLE}, got {size}")
         self.map_pixels, self.q = size, size // Q_DOWNSAMPLE
-        self.push_length = float(push_length)
+        self.push_length, self.push_frame = float(push_length), push_frame
         self.num_base = YAW_BINS * self.q * self.q
         self.action_space = spaces.Discrete(self.num_base + PUSH_BINS * self.q * self.q)
         self.map_channels = 2 if env.task.has_map_marks else 1
         self._base_mask = np.ones((self.q, self.q), dtype=bool)
         self._arm_mask = np.ones((self.q, self.q), dtype=bool)
+        self._inward_heading = np.zeros((self.q, self.q))  # base frame, into each cell's surface
 
     # ------------------------------------------------------------------- index mapping
     def decode(self, index: int) -> tuple[str, int, int, int]:
@@ -185,10 +202,37 @@ class SubgoalDControl(SubgoalControl):
             cell = 5.0 / self.q
             goal = np.array([(i + 0.5) * cell - 2.5, (j + 0.5) * cell - 2.5, -np.pi + bin_ * 2 * np.pi / YAW_BINS])
             return self.outcome(*self.execute_base(goal), action_index=index)
-        angle = bin_ * 2 * np.pi / PUSH_BINS
+        angle = self.push_heading(bin_, i, j)
         push = self.push_length * np.array([np.cos(angle), np.sin(angle)])
         row, col = Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2
         return self.outcome(*self.execute_arm(row, col, push), action_index=index)
+
+    def nearest_index(self, subgoal_r_action) -> int:
+        """The discrete action nearest to a ``subgoal-r`` action in the current observation (the
+        cell holding its base goal or pixel, the nearest yaw or push bin): how a scripted
+        subgoal-r oracle acts through this control."""
+        part, target = self.decode_continuous(subgoal_r_action)
+        if part == "base":
+            (goal,) = target
+            i, j = np.clip(np.floor((goal[:2] + 2.5) * self.q / 5.0).astype(int), 0, self.q - 1)
+            yaw_bin = int(np.round((wrap_angle(goal[2]) + np.pi) * YAW_BINS / (2 * np.pi))) % YAW_BINS
+            return self.encode("base", yaw_bin, int(i), int(j))
+        row, col, push = target
+        i, j = row // Q_DOWNSAMPLE, col // Q_DOWNSAMPLE
+        return self.encode("arm", self.nearest_push_bin(float(np.arctan2(push[1], push[0])), i, j), i, j)
+
+    def nearest_push_bin(self, heading: float, i: int, j: int) -> int:
+        """The push bin at arm cell (i, j) whose heading (``push_heading``) is nearest ``heading``."""
+        if self.push_frame == "base":
+            return int(np.round(heading * PUSH_BINS / (2 * np.pi))) % PUSH_BINS
+        offset = wrap_angle(heading - self._inward_heading[i, j])
+        return int(np.clip(np.round((offset + np.pi / 2) * PUSH_BINS / np.pi - 0.5), 0, PUSH_BINS - 1))
+
+    def push_heading(self, bin_: int, i: int, j: int) -> float:
+        """Base-frame heading of push bin ``bin_`` at arm cell (i, j) in the current observation."""
+        if self.push_frame == "base":
+            return bin_ * 2 * np.pi / PUSH_BINS
+        return float(self._inward_heading[i, j]) - np.pi / 2 + (bin_ + 0.5) * np.pi / PUSH_BINS
 
     def _validate(self, action) -> int:
         arr = np.asarray(action)
@@ -207,7 +251,7 @@ class SubgoalDControl(SubgoalControl):
     def extra_observation(self) -> dict[str, np.ndarray]:
         ranges = self.env.scan()
         self._base_mask = self._free_cells(self.mg.local_map(ranges))
-        self._arm_mask = self._reachable_cells()
+        self._arm_mask = self._arm_cells()
         obs_map = self.mg.local_map(ranges, resolution=5.0 / self.map_pixels)
         channels = [obs_map.grid]
         if self.map_channels == 2:
@@ -221,13 +265,23 @@ class SubgoalDControl(SubgoalControl):
     def extra_info(self) -> dict[str, np.ndarray]:
         return {"base_mask": self._base_mask.copy(), "arm_mask": self._arm_mask.copy()}
 
-    def _reachable_cells(self) -> np.ndarray:
-        """Q x Q arm cells whose pixel sees a point within the arm's reach."""
+    def _arm_cells(self) -> np.ndarray:
+        """Q x Q arm cells whose pixel sees a point within the arm's reach (and, in the surface
+        frame, a steep surface; its inward heading is kept for ``push_heading``)."""
+        env, frame = self.env, self.env.last_frame
         centres = Q_DOWNSAMPLE * np.arange(self.q) + Q_DOWNSAMPLE // 2
         rows, cols = np.meshgrid(centres, centres, indexing="ij")
-        points, has_depth = self.env.camera.pixels_to_world(self.env.last_frame, cols, rows)
-        distance = np.linalg.norm(points - self.env.robot.arm_base_position(), axis=-1)
-        return has_depth & (np.nan_to_num(distance, nan=np.inf) <= self.env.robot.spec.arm_reach)
+        points, has_depth = env.camera.pixels_to_world(frame, cols, rows)
+        distance = np.linalg.norm(points - env.robot.arm_base_position(), axis=-1)
+        reachable = has_depth & (np.nan_to_num(distance, nan=np.inf) <= env.robot.spec.arm_reach)
+        if self.push_frame == "base":
+            return reachable
+        normals = env.camera.surface_normals(frame, cols, rows)
+        steep = np.nan_to_num(np.hypot(normals[..., 0], normals[..., 1])) >= STEEP_NORMAL
+        ray = np.nan_to_num(points - frame.position)
+        inward = np.where(steep, np.arctan2(-normals[..., 1], -normals[..., 0]), np.arctan2(ray[..., 1], ray[..., 0]))
+        self._inward_heading = inward - env.robot.base_pose()[2]
+        return reachable & steep
 
     def _free_cells(self, local_map) -> np.ndarray:
         """Q x Q cells whose centre leaves the footprint clear of obstacles on ``local_map``."""

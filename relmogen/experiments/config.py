@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 PRESET_DIR = Path(__file__).resolve().parent.parent / "configs" / "presets"
 ALGOS = ("relmogen-r", "relmogen-d", "sac", "oac")
@@ -31,6 +31,7 @@ class EnvConfig(_Strict):
     arm_planner: str = "rrt_connect"
     arm_collision_train: bool = False
     episode_steps: int | None = Field(None, ge=1)  # None: the paper's (25 subgoals / 750 joint steps)
+    push_frame: Literal["base", "surface"] = "base"  # relmogen-d's push bins (subgoal_controls.py; ours: surface)
 
 
 class AlgoConfig(_Strict):
@@ -59,6 +60,7 @@ class AlgoConfig(_Strict):
     qmap_widths: list[int] | None = None
     qmap_head_width: int | None = None
     qmap_skip: bool | None = None  # S/4 branch features into the Q-map head (U-Net style; ours, default off)
+    demo_episodes: int = Field(0, ge=0)  # task-oracle episodes put in the replay before learning (ours; 0 = off)
 
 
 class RunSettings(_Strict):
@@ -85,6 +87,13 @@ class TrainConfig(_Strict):
     @property
     def control(self) -> str:
         return CONTROL_OF_ALGO[self.algo]
+
+    @model_validator(mode="after")
+    def _demonstrations_need_subgoals(self) -> TrainConfig:
+        if self.algo_params.demo_episodes and self.control == "joint":
+            raise ValueError(f"demo_episodes needs a subgoal policy (relmogen-r or relmogen-d), not {self.algo}: "
+                             "the task oracles act through subgoals")
+        return self
 
 
 def available_presets() -> list[str]:
@@ -146,7 +155,7 @@ def with_overrides(config: TrainConfig, overrides: list[str]) -> TrainConfig:
 RESUMABLE_ALGO_KEYS = frozenset({
     "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
     "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-    "exploration_steps", "conservative_weight",
+    "exploration_steps", "conservative_weight", "demo_episodes",
 })
 DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
                            "exploration_final_eps", "exploration_steps", "conservative_weight"})

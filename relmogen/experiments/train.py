@@ -26,6 +26,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from torch.utils.tensorboard import SummaryWriter
 
+from relmogen.agents.demonstrations import add_demonstrations
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.networks import SGPREncoder
 from relmogen.agents.replay import resize_replay_buffer
@@ -56,6 +57,8 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
     if config.control != "joint":
         kwargs.update(base_planner=base_planner or config.env.base_planner,
                       arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)
+    if config.control == "subgoal-d":
+        kwargs["push_frame"] = config.env.push_frame
     return kwargs
 
 
@@ -283,6 +286,7 @@ def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False) ->
     state = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}
     env = make_training_env(config)
     model = build_model(config, env)
+    add_missing_demonstrations(run_dir, config, model, state, quiet)
     return _learn(run_dir, config, model, state, quiet)
 
 
@@ -311,8 +315,28 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
                                          **changed)  # SB3 rebuilds schedules and buffer from these
         model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
         resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
+    add_missing_demonstrations(run_dir, config, model, state, quiet)
     _truncate_episode_log(run_dir / "episodes.csv", state["episodes"])
     return _learn(run_dir, config, model, state, quiet)
+
+
+DEMO_LOG = "demonstrations.jsonl"
+DEMO_SEED = 50_000  # oracle episodes never share seeds with evaluation (10_000+, 100_000+)
+
+
+def add_missing_demonstrations(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) -> None:
+    """Bring the oracle episodes in the replay up to ``algo.demo_episodes`` (a resume with a
+    larger value adds the difference); each batch is logged to ``demonstrations.jsonl``."""
+    added = state.get("demo_episodes", 0)
+    missing = config.algo_params.demo_episodes - added
+    if missing <= 0:
+        return
+    kwargs = env_kwargs(config, arm_collision=config.env.arm_collision_train)
+    result = add_demonstrations(model, lambda: RelmogenEnv(**kwargs), missing,
+                                seed=DEMO_SEED + 1000 * config.seed + added, quiet=quiet)
+    state["demo_episodes"] = added + result["episodes"]
+    with open(run_dir / DEMO_LOG, "a") as handle:
+        handle.write(json.dumps({"at_episode": state["episodes"], **result}) + "\n")
 
 
 RESUME_LOG = "resumes.jsonl"

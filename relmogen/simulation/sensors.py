@@ -150,6 +150,37 @@ class Camera:
         local = self.intrinsics.deproject_many(us, vs, np.where(valid, depth, np.nan))
         return frame.position + local @ frame.rotation.T, valid
 
+    def surface_normals(self, frame: CameraFrame, us: np.ndarray, vs: np.ndarray, offset: int = 1) -> np.ndarray:
+        """Unit world normals (S + (3,)) of the surfaces seen at pixels ``us``, ``vs``, facing the
+        camera: the cross product of one step along each image axis to the point ``offset``
+        pixels away. Of the two sides of an axis, the step is taken on the side that continues
+        straight for a second step, so that a pixel next to an edge keeps its own surface.
+        NaN where the pixel or its neighbours lack depth."""
+        h, w = frame.depth.shape
+
+        def seen(du: int, dv: int) -> np.ndarray:
+            return self.pixels_to_world(frame, np.clip(us + du, 0, w - 1), np.clip(vs + dv, 0, h - 1))[0]
+
+        centre = seen(0, 0)
+
+        def straighter_step(du: int, dv: int) -> np.ndarray:
+            steps, bends = [], []
+            for side in (1, -1):
+                first = seen(side * du, side * dv) - centre
+                second = seen(2 * side * du, 2 * side * dv) - centre - first
+                steps.append(side * first)
+                bends.append(np.nan_to_num(np.linalg.norm(_unit(second) - _unit(first), axis=-1), nan=np.inf))
+            return np.where((bends[0] <= bends[1])[..., None], steps[0], steps[1])
+
+        normals = _unit(np.cross(straighter_step(offset, 0), straighter_step(0, offset)))
+        away = np.sum(normals * (centre - frame.position), axis=-1) > 0
+        return np.where(away[..., None], -normals, normals)
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return vectors / np.linalg.norm(vectors, axis=-1, keepdims=True)
+
 
 class Lidar:
     """A single-plane scanner evaluated with one ``rayTestBatch`` call."""

@@ -57,6 +57,7 @@ class QMapState:
     parts: tuple[str, ...]
     choice: tuple[str, int, int, int]  # (part, bin, i, j)
     step: int
+    choice_heading: float | None = None  # robot-frame heading of the chosen push
     marked_cell: tuple[int, int] | None = None  # (i, j) the oracle reaches for, outlined in cyan
 
     def arm_values(self) -> np.ndarray:
@@ -89,8 +90,9 @@ def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
     with th.no_grad():
         maps = model.policy.q_net.net.q_maps(tensor_obs)[0].cpu().numpy()
     action = int(model.predict(obs, deterministic=True, masks=masks)[0])
-    return QMapState(obs["rgb"], obs["local_map"], maps, masks, tuple(model.subgoal_parts),
-                     control.decode(action), step)
+    choice = control.decode(action)
+    heading = control.push_heading(*choice[1:]) if choice[0] == "arm" else None
+    return QMapState(obs["rgb"], obs["local_map"], maps, masks, tuple(model.subgoal_parts), choice, step, heading)
 
 
 def _normalised(values: np.ndarray) -> np.ndarray:
@@ -127,7 +129,8 @@ def _arm_panel(axis, state: QMapState) -> None:
     if part == "arm":
         row, col = Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2
         axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
-        _arrow(axis, row, col, bin_ * 2 * np.pi / PUSH_BINS, ARROW_CELLS * Q_DOWNSAMPLE)
+        if state.choice_heading is not None:
+            _arrow(axis, row, col, state.choice_heading, ARROW_CELLS * Q_DOWNSAMPLE)
     if state.marked_cell is not None:
         i, j = state.marked_cell
         axis.add_patch(plt.Rectangle((Q_DOWNSAMPLE * j - 0.5, Q_DOWNSAMPLE * i - 0.5), Q_DOWNSAMPLE, Q_DOWNSAMPLE,

@@ -236,3 +236,67 @@ def test_pushing_into_a_wall_reports_a_blocked_push():
             break
     assert any(r.startswith("push") for r in reasons), reasons
     env.close()
+
+
+def subgoal_r_equivalent(control, index: int) -> np.ndarray:
+    """The subgoal-r action that means what discrete ``index`` means (its cell centre, its bin)."""
+    part, bin_, i, j = control.decode(index)
+    if part == "base":
+        cell = 5.0 / control.q
+        x, y = (i + 0.5) * cell - 2.5, (j + 0.5) * cell - 2.5
+        yaw = -np.pi + bin_ * 2 * np.pi / 12
+        return np.array([1.0, np.arctan2(y, x) / np.deg2rad(110.0), np.hypot(x, y) - 1.0, yaw / np.pi, 0, 0, 0, 0])
+    size = control.map_pixels
+    row, col = 4 * i + 2, 4 * j + 2
+    heading = control.push_heading(bin_, i, j)
+    return np.array([-1.0, 0, 0, 0, 2 * (row + 0.5) / size - 1, 2 * (col + 0.5) / size - 1,
+                     np.cos(heading), np.sin(heading)])
+
+
+@pytest.mark.parametrize("push_frame", ["base", "surface"])
+def test_nearest_index_inverts_the_discrete_actions(push_frame):
+    """How oracles act through subgoal-d (demonstrations): each discrete action's own meaning,
+    written as a subgoal-r action, maps back to it."""
+    env = RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, push_frame=push_frame)
+    env.reset(seed=1)
+    control, q = env.control, env.control.q
+    cell = 5.0 / q
+    centre = (np.arange(q) + 0.5) * cell - 2.5
+    x, y = np.meshgrid(centre, centre, indexing="ij")
+    in_range = (np.hypot(x, y) <= 2.0) & (np.abs(np.arctan2(y, x)) < np.deg2rad(110.0))  # subgoal-r can say it
+    rng = np.random.default_rng(0)
+    base = [control.encode("base", int(rng.integers(12)), int(i), int(j)) for i, j in np.argwhere(in_range)]
+    arm = [control.encode("arm", int(k), int(i), int(j)) for k, i, j in
+           zip(rng.integers(12, size=200), rng.integers(q, size=200), rng.integers(q, size=200))]
+    for index in base + arm:
+        assert control.nearest_index(subgoal_r_equivalent(control, index)) == index
+    env.close()
+
+
+def test_surface_frame_pushes_go_into_steep_surfaces_and_never_the_floor():
+    env = RelmogenEnv(task="ArrangeKitchenMM", control="subgoal-d", image_size=64, push_frame="surface")
+    _, info = env.reset(seed=0)  # facing cabinets over the floor
+    control, frame, q = env.control, env.last_frame, env.control.q
+    centres = 4 * np.arange(q) + 2
+    rows, cols = np.meshgrid(centres, centres, indexing="ij")
+    points, has_depth = env.camera.pixels_to_world(frame, cols, rows)
+    normals = env.camera.surface_normals(frame, cols, rows)
+    floor = has_depth & (points[..., 2] < 0.025)  # the floor's top is at 1-2 cm
+    assert floor.any() and not info["arm_mask"][floor].any()
+    np.testing.assert_allclose(normals[floor][:, 2], 1.0, atol=0.02)  # the floor faces up (depth is quantised)
+    allowed = np.argwhere(info["arm_mask"])
+    assert len(allowed) > 10
+    yaw = env.robot.base_pose()[2]
+    for i, j in allowed:
+        inward = -normals[i, j, :2] / np.linalg.norm(normals[i, j, :2])
+        headings = [control.push_heading(k, i, j) + yaw for k in range(12)]
+        into = [np.dot([np.cos(h), np.sin(h)], inward) for h in headings]
+        assert min(into) > 0.1 and max(into) > 0.99  # every bin into the surface, the middle ones head-on
+        view = points[i, j] - frame.position
+        assert np.dot(normals[i, j], view) < 0  # normals face the camera
+    env.close()
+
+
+def test_unknown_push_frame_is_refused():
+    with pytest.raises(ValueError, match="unknown push_frame 'tool'"):
+        RelmogenEnv(task="PointNav", control="subgoal-d", image_size=64, push_frame="tool")

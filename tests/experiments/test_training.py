@@ -96,6 +96,24 @@ def test_resume_with_a_changed_schedule_grows_the_replay_buffer_and_logs_the_cha
     assert (run_dir / "done.json").is_file()  # a refused change leaves the run as it was
 
 
+def test_demonstrations_are_added_once_and_topped_up_on_resume(tmp_path):
+    config = resolve_config("ButtonDoorNav", "relmogen-d", seed=0, preset="tiny", episodes=1,
+                            overrides=["algo.demo_episodes=2"])
+    run_dir = train(config, tmp_path, quiet=True)
+    log = [json.loads(line) for line in (run_dir / "demonstrations.jsonl").read_text().splitlines()]
+    assert len(log) == 1 and log[0]["at_episode"] == 0 and log[0]["episodes"] >= 2
+    state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
+    assert state["demo_episodes"] == log[0]["episodes"]
+    assert state["timesteps"] == 10  # one tiny-preset episode of the policy; demonstrations are not counted
+    resume(run_dir, quiet=True, episodes=2)  # same target: nothing added
+    assert len((run_dir / "demonstrations.jsonl").read_text().splitlines()) == 1
+    resume(run_dir, quiet=True, episodes=3, overrides=[f"algo.demo_episodes={state['demo_episodes'] + 2}"])
+    log = [json.loads(line) for line in (run_dir / "demonstrations.jsonl").read_text().splitlines()]
+    assert len(log) == 2 and log[1]["at_episode"] == 2 and log[1]["episodes"] >= 2
+    with pytest.raises(ValueError, match="needs a subgoal policy"):
+        resolve_config("PointNav", "sac", preset="tiny", episodes=1, overrides=["algo.demo_episodes=1"])
+
+
 def test_tasks_that_count_items_log_items_closed_per_episode(tmp_path):
     config = resolve_config("ArrangeKitchenMM", "relmogen-d", seed=0, preset="tiny", episodes=2,
                             overrides=["env.episode_steps=3"])

@@ -1,0 +1,119 @@
+"""How likely is a uniformly random allowed SGP-D arm action to press the ButtonDoorNav button?
+
+Drives the task's oracle to the states where it is about to press (standing 0.55-0.75 m from
+the wall, facing the button). In each such state and for each push frame (``env.push_frame``),
+every allowed arm action on the cells within one cell of the button cap (red pixels) is
+executed from the same saved physics state, and presses (cap deeper than 3 cm) are counted.
+Pushes further from the cap are taken not to press, so the odds are a lower bound. Prints a
+Markdown row per state and frame, then one JSON summary.
+
+    python scripts/press_odds.py --states 8 --out results/sgpd-surface/press_odds.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+from replay_button_pushes import cap_cells
+from scipy.ndimage import binary_dilation
+
+from relmogen.agents.oracles import make_policy
+from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.envs.subgoal_controls import PUSH_BINS, PUSH_FRAMES, SubgoalDControl, SubgoalRControl
+
+TASK = "ButtonDoorNav"
+
+
+def pre_press_states(env: RelmogenEnv, states: int, seed: int):
+    """Yield (episode, step) each time the oracle is about to push, with the world in that state."""
+    unwrapped = env.unwrapped
+    own = unwrapped.control
+    oracle_control = SubgoalRControl(unwrapped)
+    oracle = make_policy("oracle", unwrapped)
+    found = 0
+    for episode in range(10 * states):
+        obs, _ = env.reset(seed=seed + episode)
+        oracle.reset()
+        for step in range(own.episode_steps):
+            action = oracle.act(obs)
+            if not oracle_control.uses_base(action) and not unwrapped.task.button_pressed():
+                yield episode, step
+                found += 1
+                break
+            unwrapped.control = oracle_control
+            try:
+                _, _, terminated, truncated, _ = env.step(action)
+            finally:
+                unwrapped.control = own
+            obs = unwrapped._observe()
+            if terminated or truncated:
+                break
+        if found >= states:
+            return
+
+
+def presses_near_cap(env: RelmogenEnv, control: SubgoalDControl) -> dict:
+    """Every allowed arm action within one cell of the cap, each from the same saved state."""
+    unwrapped = env.unwrapped
+    unwrapped.control = control
+    obs = unwrapped._observe()
+    mask = control.extra_info()["arm_mask"]
+    near = binary_dilation(cap_cells(obs["rgb"][None])[0], np.ones((3, 3), bool)) & mask
+    mechanism, saved = unwrapped.task.mechanism, unwrapped.world.save_state()
+    presses = 0
+    try:
+        for i, j in zip(*np.nonzero(near)):
+            for bin_ in range(PUSH_BINS):
+                control.step(control.encode("arm", bin_, int(i), int(j)))
+                presses += bool(mechanism.pressed)
+                unwrapped.world.restore_state(saved)
+                mechanism.pressed, mechanism._last_angle = False, 0.0
+                mechanism.door.lock()
+                unwrapped._observe()  # the frame, masks and headings of the saved state again
+    finally:
+        unwrapped.world.remove_state(saved)
+    return {"allowed_arm_actions": int(mask.sum()) * PUSH_BINS, "tried_near_cap": int(near.sum()) * PUSH_BINS,
+            "presses": presses}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--states", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=100_000)
+    parser.add_argument("--image-size", type=int, default=64)
+    parser.add_argument("--out", type=Path)
+    args = parser.parse_args()
+    env = RelmogenEnv(task=TASK, control="subgoal-d", image_size=args.image_size)
+    controls = {frame: SubgoalDControl(env.unwrapped, push_frame=frame, arm_collision=False) for frame in PUSH_FRAMES}
+    rows = []
+    print("| episode | step | frame | allowed arm actions | tried near the cap | presses | odds |")
+    print("|---|---|---|---|---|---|---|")
+    try:
+        for episode, step in pre_press_states(env, args.states, args.seed):
+            own = env.unwrapped.control
+            for frame, control in controls.items():
+                row = {"episode": episode, "step": step, "frame": frame, **presses_near_cap(env, control)}
+                rows.append(row)
+                odds = row["presses"] / max(row["allowed_arm_actions"], 1)
+                print(f"| {episode} | {step} | {frame} | {row['allowed_arm_actions']} | {row['tried_near_cap']} "
+                      f"| {row['presses']} | {odds:.4f} |", flush=True)
+            env.unwrapped.control = own
+    finally:
+        env.close()
+    summary = {frame: {key: sum(r[key] for r in rows if r["frame"] == frame)
+                       for key in ("allowed_arm_actions", "tried_near_cap", "presses")} for frame in PUSH_FRAMES}
+    for totals in summary.values():
+        totals["odds_per_random_arm_action"] = totals["presses"] / max(totals["allowed_arm_actions"], 1)
+    result = {"task": TASK, "states": len(rows) // len(PUSH_FRAMES), "image_size": args.image_size,
+              "arm_collision": False, "per_frame": summary, "rows": rows}
+    print(json.dumps(result["per_frame"]))
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(result, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""Oracle demonstrations in the replay buffer (``algo.demo_episodes``)."""
+
+import numpy as np
+import pytest
+import torch as th
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from relmogen.agents.demonstrations import add_demonstrations
+from relmogen.agents.dqn import RelmogenDQN
+from relmogen.agents.sac import SharedEncoderSAC
+from relmogen.envs.relmogen_env import RelmogenEnv
+
+SMALL_NET = {"widths": (8, 16, 16, 32), "head_width": 32}
+
+
+@pytest.fixture(autouse=True)
+def one_torch_thread():
+    threads = th.get_num_threads()
+    th.set_num_threads(1)
+    yield
+    th.set_num_threads(threads)
+
+
+def make_env(task: str, control: str):
+    return lambda: RelmogenEnv(task=task, control=control, image_size=64, episode_steps=6, arm_collision=False)
+
+
+def test_discrete_demonstrations_fill_the_replay_without_counting_as_policy_steps():
+    make = make_env("ButtonDoorNav", "subgoal-d")
+    model = RelmogenDQN(env=DummyVecEnv([make, make]), buffer_size=200, batch_size=4, policy_kwargs=SMALL_NET,
+                        seed=0)
+    result = add_demonstrations(model, make, episodes=3, seed=5, quiet=True)
+    buffer = model.replay_buffer
+    assert result["episodes"] >= 3 and result["transitions"] == buffer.pos * buffer.n_envs
+    assert buffer.dones[: buffer.pos].sum() == result["episodes"]
+    assert model.num_timesteps == 0 and model._last_obs is None  # the policy's own bookkeeping untouched
+    actions = buffer.actions[: buffer.pos, :, 0].astype(int)
+    assert ((actions >= 0) & (actions < model.action_space.n)).all()
+    parts = actions >= 12 * model.q * model.q
+    assert parts.any() and (~parts).any()  # the oracle drives and presses
+    continuing = np.flatnonzero(buffer.dones[: buffer.pos - 1, 0] == 0) + 1  # each row keeps its own masks
+    np.testing.assert_array_equal(buffer.masks[continuing, 0], buffer.next_masks[continuing - 1, 0])
+    model.env.close()
+
+
+def test_continuous_demonstrations_store_the_oracle_actions():
+    make = make_env("PointNav", "subgoal-r")
+    model = SharedEncoderSAC(env=DummyVecEnv([make]), buffer_size=100, batch_size=4, seed=0,
+                             policy_kwargs={"net_arch": [16]})
+    result = add_demonstrations(model, make, episodes=2, seed=5, quiet=True)
+    actions = model.replay_buffer.actions[: model.replay_buffer.pos, 0]
+    assert result["episodes"] == 2 and len(actions) == result["transitions"]
+    assert (actions[:, 0] > 0).all()  # PointNav's oracle only drives: a0 > 0 selects the base
+    assert np.abs(actions).max() <= 1.0 and model.num_timesteps == 0
+    model.env.close()
+
+
+def test_joint_control_has_no_demonstrations():
+    make = lambda: RelmogenEnv(task="PointNav", control="joint", image_size=64)  # noqa: E731
+    model = SharedEncoderSAC(env=DummyVecEnv([make]), buffer_size=100, seed=0, policy_kwargs={"net_arch": [16]})
+    with pytest.raises(ValueError, match="subgoal controls, not 'joint'"):
+        add_demonstrations(model, make, episodes=1, seed=0, quiet=True)
+    model.env.close()
