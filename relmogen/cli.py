@@ -1,9 +1,9 @@
 """The ``relmogen`` command line.
 
     relmogen demo  [--episodes N] [--seed S] [--out DIR] [--json]
-    relmogen oracle --task T [--episodes N] [--policy oracle|random] [--control subgoal-r]
-                    [--scene S] [--base-planner X] [--arm-planner Y] [--arm-collision on|off]
-                    [--gif PATH] [--json]
+    relmogen oracle --task T [--episodes N] [--policy oracle|random] [--control subgoal-r|subgoal-d]
+                    [--image-size PX] [--push-frame base|surface] [--scene S] [--base-planner X]
+                    [--arm-planner Y] [--arm-collision on|off] [--gif PATH] [--json]
     relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
     relmogen bench planner [--problems N] [--seed S] [--json]
     relmogen bench train [--task T] [--updates N] [--json]
@@ -56,7 +56,8 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 
     result = run_oracle(args.task, args.episodes, args.policy, args.control, args.seed, args.scene,
                         args.base_planner, args.arm_planner, args.arm_collision == "on", quiet=args.json,
-                        gif=Path(args.gif) if args.gif else None)
+                        gif=Path(args.gif) if args.gif else None, image_size=args.image_size,
+                        push_frame=args.push_frame)
     _print_metrics(result, args.json, f"{args.task}: {args.policy} subgoals")
     return 0
 
@@ -182,7 +183,10 @@ def build_parser() -> argparse.ArgumentParser:
     oracle.add_argument("--task", required=True)
     oracle.add_argument("--episodes", type=_positive_int, default=10)
     oracle.add_argument("--policy", choices=["oracle", "random"], default="oracle")
-    oracle.add_argument("--control", default="subgoal-r")
+    oracle.add_argument("--control", choices=["subgoal-r", "subgoal-d"], default="subgoal-r",
+                        help="subgoal-d: each oracle action executed as the nearest discrete SGP-D action")
+    oracle.add_argument("--image-size", type=_positive_int, default=128)
+    oracle.add_argument("--push-frame", choices=["base", "surface"], default="base", help="subgoal-d's push bins")
     oracle.add_argument("--seed", type=int, default=0)
     oracle.add_argument("--scene", default=None)
     oracle.add_argument("--base-planner", default="rrt_connect")
