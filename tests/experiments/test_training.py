@@ -20,8 +20,8 @@ from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.experiments.config import read_config, resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_policy
-from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, latest_checkpoint, read_resume_log,
-                                       resume, train)
+from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, env_kwargs, latest_checkpoint,
+                                       read_resume_log, resume, train)
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 
 
@@ -112,6 +112,14 @@ def test_demonstrations_are_added_once_and_topped_up_on_resume(tmp_path):
     assert len(log) == 2 and log[1]["at_episode"] == 2 and log[1]["episodes"] >= 2
     with pytest.raises(ValueError, match="needs a subgoal policy"):
         resolve_config("PointNav", "sac", preset="tiny", episodes=1, overrides=["algo.demo_episodes=1"])
+
+
+def test_the_push_frame_reaches_every_environment_of_a_relmogen_d_run():
+    config = resolve_config("ArrangeKitchenMM", "relmogen-d", preset="tiny", overrides=["env.push_frame=surface"])
+    assert env_kwargs(config, arm_collision=True)["push_frame"] == "surface"  # training, evaluation, Q maps
+    assert "push_frame" not in env_kwargs(resolve_config("PointNav", "relmogen-r", preset="tiny"), arm_collision=True)
+    with pytest.raises(ValueError, match="push_frame"):
+        resolve_config("PointNav", "relmogen-d", preset="tiny", overrides=["env.push_frame=tool"])
 
 
 def test_tasks_that_count_items_log_items_closed_per_episode(tmp_path):
