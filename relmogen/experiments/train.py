@@ -321,7 +321,9 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
 
 
 DEMO_LOG = "demonstrations.jsonl"
-DEMO_SEED = 50_000  # oracle episodes never share seeds with evaluation (10_000+, 100_000+)
+# Demonstrations of run seed s use episode seeds 50,000 + 1,000 s + n: apart from the final
+# evaluations' 100,000 and up for run seeds below 50 and up to 1,000 demonstrations.
+DEMO_SEED = 50_000
 
 
 def add_missing_demonstrations(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) -> None:
