@@ -20,39 +20,11 @@ import numpy as np
 from replay_button_pushes import cap_cells
 from scipy.ndimage import binary_dilation
 
-from relmogen.agents.oracles import make_policy
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.envs.subgoal_controls import PUSH_BINS, PUSH_FRAMES, SubgoalDControl, SubgoalRControl
+from relmogen.envs.subgoal_controls import PUSH_BINS, PUSH_FRAMES, SubgoalDControl
+from relmogen.experiments.oracle import oracle_arm_pushes
 
 TASK = "ButtonDoorNav"
-
-
-def pre_press_states(env: RelmogenEnv, states: int, seed: int):
-    """Yield (episode, step) each time the oracle is about to push, with the world in that state."""
-    unwrapped = env.unwrapped
-    own = unwrapped.control
-    oracle_control = SubgoalRControl(unwrapped)
-    oracle = make_policy("oracle", unwrapped)
-    found = 0
-    for episode in range(10 * states):
-        obs, _ = env.reset(seed=seed + episode)
-        oracle.reset()
-        for step in range(own.episode_steps):
-            action = oracle.act(obs)
-            if not oracle_control.uses_base(action) and not unwrapped.task.button_pressed():
-                yield episode, step
-                found += 1
-                break
-            unwrapped.control = oracle_control
-            try:
-                _, _, terminated, truncated, _ = env.step(action)
-            finally:
-                unwrapped.control = own
-            obs = unwrapped._observe()
-            if terminated or truncated:
-                break
-        if found >= states:
-            return
 
 
 def presses_near_cap(env: RelmogenEnv, control: SubgoalDControl) -> dict:
@@ -92,7 +64,11 @@ def main() -> None:
     print("| episode | step | frame | allowed arm actions | tried near the cap | presses | odds |")
     print("|---|---|---|---|---|---|---|")
     try:
-        for episode, step in pre_press_states(env, args.states, args.seed):
+        used = set()
+        for episode, step, _, _ in oracle_arm_pushes(env, 10 * args.states, args.seed):
+            if episode in used or env.unwrapped.task.button_pressed():
+                continue  # one state per episode, before its first press
+            used.add(episode)
             own = env.unwrapped.control
             for frame, control in controls.items():
                 row = {"episode": episode, "step": step, "frame": frame, **presses_near_cap(env, control)}
@@ -101,6 +77,8 @@ def main() -> None:
                 print(f"| {episode} | {step} | {frame} | {row['allowed_arm_actions']} | {row['tried_near_cap']} "
                       f"| {row['presses']} | {odds:.4f} |", flush=True)
             env.unwrapped.control = own
+            if len(used) >= args.states:
+                break
     finally:
         env.close()
     summary = {frame: {key: sum(r[key] for r in rows if r["frame"] == frame)

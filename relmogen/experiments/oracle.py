@@ -6,6 +6,7 @@ from pathlib import Path
 
 from relmogen.agents.oracles import make_policy
 from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.envs.subgoal_controls import SubgoalRControl
 from relmogen.experiments.rollout import aggregate, run_episode, run_episodes
 from relmogen.visualisation.views import write_animation
 
@@ -39,3 +40,32 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
         result["gif"] = str(write_animation(record.frames, gif, fps=8))
     env.close()
     return result
+
+
+def oracle_arm_pushes(env: RelmogenEnv, episodes: int, seed: int):
+    """Let the task's oracle drive ``env`` for up to ``episodes`` episodes (seeds ``seed``, ``seed``
+    + 1, ...) and yield ``(episode, step, obs, action)`` just before each of its arm pushes,
+    with the world in that state. The oracle acts through a ``subgoal-r`` control on the same
+    world (same planners); ``env``'s own control is put back before every observation, so
+    ``obs`` and its masks are what a policy of that control would see."""
+    unwrapped = env.unwrapped
+    own_control = unwrapped.control
+    planners = own_control.mg.config
+    oracle_control = SubgoalRControl(unwrapped, base_planner=planners.base_planner,
+                                     arm_planner=planners.arm_planner, arm_collision=planners.arm_collision_checking)
+    oracle = make_policy("oracle", unwrapped)
+    for episode in range(episodes):
+        obs, _ = env.reset(seed=seed + episode)
+        oracle.reset()
+        done, step = False, 0
+        while not done:
+            action = oracle.act(obs)
+            if not oracle_control.uses_base(action):
+                yield episode, step, obs, action
+            unwrapped.control = oracle_control
+            try:
+                _, _, terminated, truncated, _ = env.step(action)
+            finally:
+                unwrapped.control = own_control
+            obs = unwrapped._observe()
+            done, step = terminated or truncated, step + 1

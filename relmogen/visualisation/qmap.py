@@ -36,9 +36,9 @@ import numpy as np  # noqa: E402
 import torch as th  # noqa: E402
 
 from relmogen.agents.dqn import info_masks, without_arm_mask  # noqa: E402
-from relmogen.agents.oracles import make_policy  # noqa: E402
 from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
-from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS, SubgoalRControl  # noqa: E402
+from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS  # noqa: E402
+from relmogen.experiments.oracle import oracle_arm_pushes  # noqa: E402
 
 OVERLAY_ALPHA = 0.45
 ARROW_CELLS = 2.5  # arrow length in Q-map cells
@@ -215,35 +215,15 @@ def _figure_path(out_dir: Path, env: RelmogenEnv, episode: int, step: int) -> Pa
 
 
 def _oracle_figures(model, env: RelmogenEnv, out_dir: Path, states: int, seed: int, title: str) -> list[Path]:
-    """The oracle acts through a ``subgoal-r`` control on the same world; the policy's own
-    control is put back before every observation, so its masks and local map are current."""
+    """The states before the oracle's arm pushes (``oracle_arm_pushes``), its cell outlined."""
     unwrapped = env.unwrapped
-    own_control = unwrapped.control
-    planners = own_control.mg.config
-    oracle_control = SubgoalRControl(unwrapped, base_planner=planners.base_planner,
-                                     arm_planner=planners.arm_planner, arm_collision=planners.arm_collision_checking)
-    oracle = make_policy("oracle", unwrapped)
     paths, records = [], []
-    for episode in range(ORACLE_EPISODES):
-        obs, _ = env.reset(seed=seed + episode)
-        oracle.reset()
-        done, step = False, 0
-        while not done and len(paths) < states:
-            action = oracle.act(obs)
-            if not oracle_control.uses_base(action):
-                row, col = oracle_control.arm_pixel(action)
-                state = q_map_state(model, env, obs, step)
-                state.marked_cell = (row // Q_DOWNSAMPLE, col // Q_DOWNSAMPLE)
-                records.append(_oracle_record(state, episode))
-                paths.append(draw_q_map_state(state, _figure_path(out_dir, env, episode, step),
-                                              title or unwrapped.task.name))
-            unwrapped.control = oracle_control
-            try:
-                _, _, terminated, truncated, _ = env.step(action)
-            finally:
-                unwrapped.control = own_control
-            obs = unwrapped._observe()
-            done, step = terminated or truncated, step + 1
+    for episode, step, obs, action in oracle_arm_pushes(env, ORACLE_EPISODES, seed):
+        row, col = unwrapped.control.arm_pixel(action)
+        state = q_map_state(model, env, obs, step)
+        state.marked_cell = (row // Q_DOWNSAMPLE, col // Q_DOWNSAMPLE)
+        records.append(_oracle_record(state, episode))
+        paths.append(draw_q_map_state(state, _figure_path(out_dir, env, episode, step), title or unwrapped.task.name))
         if len(paths) >= states:
             break
     if not paths:
