@@ -6,7 +6,8 @@ Each oracle action is a ``subgoal-r`` action; relmogen-r stores it unchanged, re
 executes and stores the nearest discrete action (``SubgoalDControl.nearest_index``: the cell
 holding the oracle's base goal or pixel, the nearest yaw or push bin). The transitions go in
 through the algorithm's own ``_store_transition``, as if the policy had acted (relmogen-d keeps
-the cell masks it acted under). They are not counted as environment steps of the policy
+the cell masks it acted under and marks the rows as demonstrations: ``algo.demo_keep`` keeps them
+for the whole run, ``algo.demo_margin_weight`` adds DQfD's margin term on them). They are not counted as environment steps of the policy
 (``num_timesteps``, the epsilon schedule, ``learning_starts``) nor as training episodes.
 """
 
@@ -39,11 +40,14 @@ def add_demonstrations(model, make_env: Callable, episodes: int, seed: int, quie
     saved = {key: getattr(model, key, None) for key in ("_last_obs", "_last_original_obs", "_acting_masks")}
     venv.seed(seed)
     obs, started = venv.reset(), time.time()
+    marks = hasattr(model.replay_buffer, "adding_demonstrations")  # relmogen-d's buffer marks their rows
     for oracle in oracles:
         oracle.reset()
     returns, successes, running = [], [], np.zeros(model.n_envs)
     transitions = 0
     try:
+        if marks:
+            model.replay_buffer.adding_demonstrations = True
         with Progress(disable=quiet) as progress:
             bar = progress.add_task("oracle demonstrations", total=episodes)
             while len(returns) < episodes:
@@ -64,6 +68,8 @@ def add_demonstrations(model, make_env: Callable, episodes: int, seed: int, quie
                     oracles[index].reset()
                 progress.update(bar, completed=min(len(returns), episodes))
     finally:
+        if marks:
+            model.replay_buffer.adding_demonstrations = False
         for key, value in saved.items():
             setattr(model, key, value)
         venv.close()

@@ -33,6 +33,13 @@ arm actions of which a replay has tried few, Double DQN targets still bootstrap 
 untried ones; the term pushes those down and the taken ones up. The buffer therefore keeps
 each transition's own masks too (the masks the action was chosen under). On ButtonDoorNav it
 lowered the button further (``results/sgpd-cql``).
+
+Demonstration margin (``demo_margin_weight`` > 0; ours, off by default): DQfD's supervised
+large-margin term (Hester et al., 2018) on the batch's demonstration rows (``algo.demo_episodes``,
+``QMapReplayBuffer.demo``) makes the demonstrated action's Q exceed every other allowed action's
+by ``DQFD_MARGIN``: ``max_a [Q(s, a) + 0.8 [a != a_E]] - Q(s, a_E)``. The ``cpu`` preset's
+16 x 16 maps hold 3,072 arm actions, and a demonstrated press is one of them: the TD loss alone
+left the few demonstrated presses below their untried neighbours (``results/sgpd-demos``).
 """
 
 from __future__ import annotations
@@ -55,6 +62,7 @@ from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
 ALL_PARTS = ("base", "arm")
+DQFD_MARGIN = 0.8  # the expert margin of DQfD (Hester et al., 2018)
 MASK_KEYS = ("base_mask", "arm_mask")  # info keys of the (Q, Q) cell masks, in channel order
 
 
@@ -200,16 +208,25 @@ class QMapReplaySamples(NamedTuple):
     discounts: th.Tensor | None = None
     next_masks: th.Tensor | None = None
     masks: th.Tensor | None = None
+    demo: th.Tensor | None = None
 
 
 class QMapReplayBuffer(DictReplayBuffer):
     """``DictReplayBuffer`` with float16 ``depth`` and the state's and next state's cell masks per
-    transition. ``masks`` rows are written by ``RelmogenDQN._store_transition`` (the masks the
-    action was chosen under); rows added directly with ``add`` keep every cell allowed."""
+    transition. ``masks`` rows are the masks the action was chosen under (``acting_masks``, set
+    by ``RelmogenDQN._store_transition`` before each ``add``); rows added without them allow every cell.
+
+    Rows added while ``adding_demonstrations`` is set are marked in ``demo``. With
+    ``keep_demonstrations`` the ring skips them, so they stay for the whole run (DQfD keeps its
+    demonstrations the same way; ours, off by default)."""
 
     def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Discrete,
-                 *args: Any, **kwargs: Any):
+                 *args: Any, keep_demonstrations: bool = False, **kwargs: Any):
         super().__init__(buffer_size, observation_space, action_space, *args, **kwargs)
+        self.keep_demonstrations = bool(keep_demonstrations)
+        self.adding_demonstrations = False
+        self.acting_masks = None
+        self.demo = np.zeros(self.buffer_size, dtype=bool)
         for store in (self.observations, self.next_observations):
             if "depth" in store:
                 store["depth"] = np.zeros(store["depth"].shape, dtype=np.float16)
@@ -223,18 +240,36 @@ class QMapReplayBuffer(DictReplayBuffer):
         if "next_base_masks" in state:
             base = state.pop("next_base_masks")
             state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
+        state = {"keep_demonstrations": False, "adding_demonstrations": False, "acting_masks": None, **state}
         self.__dict__.update(state)
         if "masks" not in state:
             self.masks = masks_before(self.next_masks, self.dones, self.pos, self.full)
+        if "demo" not in state:
+            self.demo = np.zeros(self.buffer_size, dtype=bool)
 
     def add(self, obs, next_obs, action, reward, done, infos) -> None:
+        if self.keep_demonstrations:
+            self._skip_demonstration_rows()
+        self.masks[self.pos] = True if self.acting_masks is None else self.acting_masks
+        self.acting_masks = None
         self.next_masks[self.pos] = masks_from_infos(infos, self.next_masks.shape[-1])
+        self.demo[self.pos] = self.adding_demonstrations
         super().add(obs, next_obs, action, reward, done, infos)
+
+    def _skip_demonstration_rows(self) -> None:
+        """Move ``pos`` past kept demonstration rows (wrapping round as SB3's ``add`` does)."""
+        for _ in range(self.buffer_size):
+            if not self.demo[self.pos]:
+                return
+            self.pos = (self.pos + 1) % self.buffer_size
+            self.full = self.full or self.pos == 0
+        raise ValueError(f"demonstrations fill all {self.buffer_size} rows of the replay buffer: raise "
+                         "algo.buffer_size or lower algo.demo_episodes")
 
     def nbytes(self) -> int:
         """Bytes held by the stored arrays."""
         arrays = [*self.observations.values(), *self.next_observations.values(), self.actions, self.rewards,
-                  self.dones, self.timeouts, self.next_masks, self.masks]
+                  self.dones, self.timeouts, self.next_masks, self.masks, self.demo]
         return int(sum(array.nbytes for array in arrays))
 
     def _batch(self, store: dict[str, np.ndarray], rows, envs, env) -> TensorDict:
@@ -254,6 +289,7 @@ class QMapReplayBuffer(DictReplayBuffer):
             rewards=self.to_torch(rewards),
             next_masks=self.to_torch(self.next_masks[batch_inds, envs]),
             masks=self.to_torch(self.masks[batch_inds, envs]),
+            demo=self.to_torch(self.demo[batch_inds]),
         )
 
 
@@ -276,11 +312,13 @@ class RelmogenDQN(DQN):
                  gamma: float = 0.99, target_update_interval: int = 1024, tau: float = 1.0,
                  max_grad_norm: float = 10.0, exploration_initial_eps: float = 0.8,
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
-                 conservative_weight: float = 0.0, replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
+                 conservative_weight: float = 0.0, demo_margin_weight: float = 0.0,
+                 replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
         self.mask_arm = bool(mask_arm)
         self.exploration_steps = exploration_steps
         self.conservative_weight = float(conservative_weight)
+        self.demo_margin_weight = float(demo_margin_weight)
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -338,8 +376,8 @@ class RelmogenDQN(DQN):
         return action, action
 
     def _store_transition(self, replay_buffer, buffer_action, new_obs, reward, dones, infos) -> None:
-        if isinstance(replay_buffer, QMapReplayBuffer):  # ``add`` writes its row at ``pos``
-            replay_buffer.masks[replay_buffer.pos] = self._acting_masks
+        if isinstance(replay_buffer, QMapReplayBuffer):
+            replay_buffer.acting_masks = self._acting_masks
         super()._store_transition(replay_buffer, buffer_action, new_obs, reward, dones, infos)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False,
@@ -379,22 +417,38 @@ class RelmogenDQN(DQN):
         self.logger.record("train/loss", float(losses[:, 0].mean()))
         if self.conservative_weight:
             self.logger.record("train/conservative_gap", float(losses[:, 1].mean()))
+        if self.demo_margin_weight:
+            self.logger.record("train/demo_margin_loss", float(losses[:, 2].mean()))
 
     def conservative_gap(self, q_values: th.Tensor, taken: th.Tensor, masks: th.Tensor | None) -> th.Tensor:
         """Mean over the batch of logsumexp over allowed actions of Q(s, .) minus Q(s, a_taken)."""
         allowed = self.allowed(masks, q_values.shape[0])
         return (q_values.masked_fill(~allowed, -th.inf).logsumexp(dim=1, keepdim=True) - taken).mean()
 
-    def _gradient_step(self, data) -> tuple[float, float]:
-        """One update; returns (Huber TD loss, conservative gap)."""
+    def demonstration_margin(self, q_values: th.Tensor, data) -> th.Tensor:
+        """DQfD's large-margin loss, mean over the batch's demonstration rows (0 without any):
+        max over allowed a of [Q(s, a) + 0.8 if a is not the demonstrated a_E] minus Q(s, a_E)."""
+        demo = data.demo.bool() if data.demo is not None else None
+        if demo is None or not demo.any():
+            return th.zeros((), device=q_values.device)
+        q_values, taken = q_values[demo], data.actions.long()[demo]
+        expert = F.one_hot(taken.reshape(-1), q_values.shape[1]).bool()
+        allowed = self.allowed(data.masks[demo] if data.masks is not None else None, q_values.shape[0]) | expert
+        best = (q_values + DQFD_MARGIN * ~expert).masked_fill(~allowed, -th.inf).max(dim=1).values
+        return (best - q_values.gather(1, taken).reshape(-1)).mean()
+
+    def _gradient_step(self, data) -> tuple[float, float, float]:
+        """One update; returns (Huber TD loss, conservative gap, demonstration margin loss)."""
         targets = self.double_dqn_targets(data)
         q_values = self.q_net(data.observations)
         current = q_values.gather(1, data.actions.long())
         td_loss = F.smooth_l1_loss(current, targets)
-        gap = self.conservative_gap(q_values, current, data.masks) if self.conservative_weight else th.zeros(())
-        loss = td_loss + self.conservative_weight * gap
+        no_term = th.zeros((), device=q_values.device)
+        gap = self.conservative_gap(q_values, current, data.masks) if self.conservative_weight else no_term
+        margin = self.demonstration_margin(q_values, data) if self.demo_margin_weight else no_term
+        loss = td_loss + self.conservative_weight * gap + self.demo_margin_weight * margin
         self.policy.optimizer.zero_grad()
         loss.backward()
         th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
         self.policy.optimizer.step()
-        return td_loss.item(), gap.item()
+        return td_loss.item(), gap.item(), margin.item()

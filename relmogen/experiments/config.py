@@ -61,6 +61,8 @@ class AlgoConfig(_Strict):
     qmap_head_width: int | None = None
     qmap_skip: bool | None = None  # S/4 branch features into the Q-map head (U-Net style; ours, default off)
     demo_episodes: int = Field(0, ge=0)  # task-oracle episodes put in the replay before learning (ours; 0 = off)
+    demo_keep: bool = False  # relmogen-d: the replay never overwrites the demonstrations (ours)
+    demo_margin_weight: float = Field(0.0, ge=0)  # relmogen-d: DQfD's large-margin term on them (ours; 0 = off)
 
 
 class RunSettings(_Strict):
@@ -93,6 +95,12 @@ class TrainConfig(_Strict):
         if self.algo_params.demo_episodes and self.control == "joint":
             raise ValueError(f"demo_episodes needs a subgoal policy (relmogen-r or relmogen-d), not {self.algo}: "
                              "the task oracles act through subgoals")
+        params = self.algo_params
+        uses = [key for key in ("demo_keep", "demo_margin_weight") if getattr(params, key)]
+        if uses and self.algo != "relmogen-d":
+            raise ValueError(f"{' and '.join(uses)} need relmogen-d's replay buffer, not {self.algo}")
+        if uses and not params.demo_episodes:
+            raise ValueError(f"{' and '.join(uses)} act on demonstrations: set algo.demo_episodes too")
         return self
 
 
@@ -155,10 +163,11 @@ def with_overrides(config: TrainConfig, overrides: list[str]) -> TrainConfig:
 RESUMABLE_ALGO_KEYS = frozenset({
     "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
     "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-    "exploration_steps", "conservative_weight", "demo_episodes",
+    "exploration_steps", "conservative_weight", "demo_episodes", "demo_margin_weight",
 })
 DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
-                           "exploration_final_eps", "exploration_steps", "conservative_weight"})
+                           "exploration_final_eps", "exploration_steps", "conservative_weight",
+                           "demo_margin_weight"})
 
 
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:

@@ -98,6 +98,8 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
                  "exploration_steps", "conservative_weight", "mask_arm") if getattr(params, key) is not None}
     return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
+                       demo_margin_weight=params.demo_margin_weight,
+                       replay_buffer_kwargs={"keep_demonstrations": params.demo_keep},
                        batch_size=params.batch_size, gamma=params.gamma, learning_starts=params.learning_starts,
                        train_freq=params.train_freq, gradient_steps=params.gradient_steps, tau=params.tau,
                        subgoal_parts=task_class(config.task).subgoal_parts, policy_kwargs=policy_kwargs,
