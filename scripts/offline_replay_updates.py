@@ -93,7 +93,7 @@ def main() -> None:
     with Progress() as progress:
         bar = progress.add_task("offline updates", total=args.updates)
         for update in range(1, args.updates + 1):
-            loss, gap = model._gradient_step(model.replay_buffer.sample(params.batch_size))
+            loss, gap, _ = model._gradient_step(model.replay_buffer.sample(params.batch_size))
             losses.append(loss)
             gaps.append(gap)
             if update % copy_every == 0:

@@ -5,10 +5,11 @@ environment: oracles read privileged simulator state, which subprocess workers d
 Each oracle action is a ``subgoal-r`` action; relmogen-r stores it unchanged, relmogen-d
 executes and stores the nearest discrete action (``SubgoalDControl.nearest_index``: the cell
 holding the oracle's base goal or pixel, the nearest yaw or push bin). The transitions go in
-through the algorithm's own ``_store_transition``, as if the policy had acted (relmogen-d keeps
+through the algorithm's own ``_store_transition``, as if the policy had acted. relmogen-d keeps
 the cell masks it acted under and marks the rows as demonstrations: ``algo.demo_keep`` keeps them
-for the whole run, ``algo.demo_margin_weight`` adds DQfD's margin term on them). They are not counted as environment steps of the policy
-(``num_timesteps``, the epsilon schedule, ``learning_starts``) nor as training episodes.
+for the whole run, ``algo.demo_margin_weight`` adds DQfD's margin term on them. They are not
+counted as environment steps of the policy (``num_timesteps``, the epsilon schedule,
+``learning_starts``) nor as training episodes.
 """
 
 from __future__ import annotations

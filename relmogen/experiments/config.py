@@ -98,9 +98,10 @@ class TrainConfig(_Strict):
         params = self.algo_params
         uses = [key for key in ("demo_keep", "demo_margin_weight") if getattr(params, key)]
         if uses and self.algo != "relmogen-d":
-            raise ValueError(f"{' and '.join(uses)} need relmogen-d's replay buffer, not {self.algo}")
+            raise ValueError(f"{' and '.join(uses)}: relmogen-d only (its replay buffer marks demonstrations), "
+                             f"not {self.algo}")
         if uses and not params.demo_episodes:
-            raise ValueError(f"{' and '.join(uses)} act on demonstrations: set algo.demo_episodes too")
+            raise ValueError(f"{' and '.join(uses)}: these act on demonstrations; set algo.demo_episodes too")
         return self
 
 

@@ -40,6 +40,7 @@ def test_discrete_demonstrations_fill_the_replay_without_counting_as_policy_step
     assert parts.any() and (~parts).any()  # the oracle drives and presses
     continuing = np.flatnonzero(buffer.dones[: buffer.pos - 1, 0] == 0) + 1  # each row keeps its own masks
     np.testing.assert_array_equal(buffer.masks[continuing, 0], buffer.next_masks[continuing - 1, 0])
+    assert buffer.demo[: buffer.pos].all() and not buffer.adding_demonstrations  # rows marked, then off
     model.env.close()
 
 

@@ -12,8 +12,10 @@ from relmogen.agents.dqn import (
     QMapReplayBuffer,
     QMapReplaySamples,
     RelmogenDQN,
+    DQFD_MARGIN,
     allowed_actions,
     env_policy,
+    masked_argmax,
     masks_before,
 )
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
@@ -285,6 +287,90 @@ def test_masks_of_an_older_buffer_are_rebuilt_from_the_previous_next_masks():
     assert masks_before(next_masks, dones, pos=2, full=False)[0].all()  # not full: row 0 is the oldest
     dones[2] = 1
     assert masks_before(next_masks, dones, pos=0, full=True)[3].all()  # after an episode end: every cell
+
+
+# ------------------------------------------------------------ kept demonstrations
+def tiny_buffer(rows: int, keep: bool) -> QMapReplayBuffer:
+    space = spaces.Dict({"depth": spaces.Box(0.0, 3.0, (2, 2, 1), np.float32)})
+    return QMapReplayBuffer(rows, space, spaces.Discrete(NUM_MAPS), device="cpu", keep_demonstrations=keep)
+
+
+def add_rows(buffer: QMapReplayBuffer, actions, demonstrations: bool) -> None:
+    buffer.adding_demonstrations = demonstrations
+    obs = {"depth": np.zeros((1, 2, 2, 1), np.float32)}
+    for action in actions:
+        buffer.add(obs, obs, np.array([[action]]), np.zeros(1), np.zeros(1), [{}])
+    buffer.adding_demonstrations = False
+
+
+@pytest.mark.parametrize("keep", [True, False])
+def test_the_ring_skips_kept_demonstration_rows(keep):
+    buffer = tiny_buffer(8, keep)
+    add_rows(buffer, [20, 21, 22], demonstrations=True)
+    add_rows(buffer, range(10), demonstrations=False)  # 10 policy rows wrap the 8-row ring
+    stored = buffer.actions[:, 0, 0].astype(int).tolist()
+    if keep:
+        assert stored == [20, 21, 22, 5, 6, 7, 8, 9] and buffer.demo.tolist() == [True] * 3 + [False] * 5
+        add_rows(buffer, [10], demonstrations=False)
+        assert buffer.full and buffer.actions[3, 0, 0] == 10  # the next row goes after the demonstrations
+    else:
+        assert stored == [5, 6, 7, 8, 9, 2, 3, 4] and not buffer.demo.any()
+    add_rows(buffer, [23], demonstrations=True)  # a resume's extra demonstrations are kept as well
+    assert buffer.demo.sum() == (4 if keep else 1)
+
+
+def test_demonstrations_filling_the_whole_ring_are_refused():
+    buffer = tiny_buffer(4, keep=True)
+    add_rows(buffer, range(4), demonstrations=True)
+    with pytest.raises(ValueError, match="demonstrations fill all 4 rows"):
+        add_rows(buffer, [5], demonstrations=False)
+
+
+def test_a_buffer_saved_before_demonstration_rows_loads_with_none():
+    buffer = tiny_buffer(4, keep=False)
+    state = buffer.__getstate__() if hasattr(buffer, "__getstate__") else dict(vars(buffer))
+    for key in ("demo", "keep_demonstrations", "adding_demonstrations", "acting_masks"):
+        state.pop(key)
+    old = QMapReplayBuffer.__new__(QMapReplayBuffer)
+    old.__setstate__(dict(state))
+    assert old.demo.shape == (4,) and not old.demo.any() and not old.keep_demonstrations
+    add_rows(old, [1], demonstrations=False)
+
+
+def demonstration_batch(model, n: int = 6) -> QMapReplaySamples:
+    data = conservative_batch(model, n)
+    return data._replace(demo=th.tensor([True, False] * (n // 2)))
+
+
+def test_demonstration_margin_is_dqfds_large_margin_loss_on_demonstration_rows(model):
+    data = demonstration_batch(model)
+    with th.no_grad():
+        q_values = model.q_net(data.observations)
+        margin = model.demonstration_margin(q_values, data)
+    allowed = allowed_actions(data.masks, model.subgoal_parts)
+    expected = []
+    for b in np.flatnonzero(data.demo.numpy()):
+        action = int(data.actions[b])
+        others = allowed[b].clone()
+        others[action] = False
+        best_other = float(q_values[b][others].max()) + DQFD_MARGIN
+        expected.append(max(best_other, float(q_values[b, action])) - float(q_values[b, action]))
+    assert float(margin) == pytest.approx(np.mean(expected), rel=1e-5)
+    assert float(model.demonstration_margin(q_values, data._replace(demo=th.zeros(6, dtype=th.bool)))) == 0.0
+
+
+def test_margin_updates_make_each_demonstrated_action_the_greedy_one():
+    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
+                      policy_kwargs=SMALL_NET, seed=0, demo_margin_weight=5.0, learning_rate=3e-3)
+    dqn.policy.set_training_mode(True)
+    data = demonstration_batch(dqn)
+    margins = [dqn._gradient_step(data)[2] for _ in range(40)]
+    with th.no_grad():
+        greedy = masked_argmax(dqn.q_net(data.observations), allowed_actions(data.masks, dqn.subgoal_parts))
+    dqn.env.close()
+    assert margins[0] > DQFD_MARGIN and margins[-1] < 0.1 * margins[0]
+    demo = data.demo.numpy()
+    np.testing.assert_array_equal(greedy.numpy()[demo], data.actions.ravel().numpy()[demo])
 
 
 # ------------------------------------------------------------------- (d) end to end

@@ -46,10 +46,22 @@ def test_a_resumed_run_may_change_its_learning_schedule_and_reports_what_changed
     assert changed == {"exploration_final_eps": 0.2, "buffer_size": 50000}  # gamma is unchanged
     assert updated.run.eval_episodes == 3 and updated.env == config.env
     assert override_config(config, ["algo.conservative_weight=0.5"])[1] == {"conservative_weight": 0.5}
+    with_demos = resolve_config("ButtonDoorNav", "relmogen-d", preset="cpu", overrides=["algo.demo_episodes=5"])
+    assert override_config(with_demos, ["algo.demo_margin_weight=2"])[1] == {"demo_margin_weight": 2.0}
+
+
+@pytest.mark.parametrize(("algo", "overrides", "message"), [
+    ("relmogen-r", ["algo.demo_episodes=5", "algo.demo_keep=true"], "demo_keep: relmogen-d only"),
+    ("relmogen-d", ["algo.demo_margin_weight=1"], "set algo.demo_episodes too"),
+    ("relmogen-d", ["algo.demo_keep=true", "algo.demo_margin_weight=1"], "demo_keep and demo_margin_weight"),
+])
+def test_demonstration_settings_are_refused_where_they_would_do_nothing(algo, overrides, message):
+    with pytest.raises(ValueError, match=message):
+        resolve_config("ButtonDoorNav", algo, preset="tiny", overrides=overrides)
 
 
 @pytest.mark.parametrize("assignment", ["env.image_size=128", "algo.qmap_widths=[8, 8, 8, 8]", "task=PushDoorNav",
-                                        "algo.mask_arm=false"])
+                                        "algo.mask_arm=false", "algo.demo_keep=true"])
 def test_a_resumed_run_refuses_changes_its_checkpoint_cannot_follow(assignment):
     config = resolve_config("PointNav", "relmogen-d", preset="cpu")
     with pytest.raises(ValueError, match="when resuming"):

@@ -2,6 +2,7 @@
 
 import csv
 import json
+import pickle
 import os
 import signal
 import subprocess
@@ -112,6 +113,22 @@ def test_demonstrations_are_added_once_and_topped_up_on_resume(tmp_path):
     assert len(log) == 2 and log[1]["at_episode"] == 2 and log[1]["episodes"] >= 2
     with pytest.raises(ValueError, match="needs a subgoal policy"):
         resolve_config("PointNav", "sac", preset="tiny", episodes=1, overrides=["algo.demo_episodes=1"])
+
+
+def test_kept_demonstrations_outlive_a_full_ring_and_a_resume(tmp_path):
+    config = resolve_config("ButtonDoorNav", "relmogen-d", seed=0, preset="tiny", episodes=3,
+                            overrides=["algo.demo_episodes=2", "algo.demo_keep=true", "algo.demo_margin_weight=1",
+                                       "algo.buffer_size=40"])
+    run_dir = train(config, tmp_path, quiet=True)  # about 20 demonstration rows and 30 policy rows in 40
+    buffer = pickle.loads((latest_checkpoint(run_dir) / "replay_buffer.pkl").read_bytes())
+    demo_rows = int(buffer.demo.sum())
+    assert buffer.full and buffer.keep_demonstrations and demo_rows >= 2
+    assert buffer.demo[:demo_rows].all()  # the first rows, never overwritten
+    kept = buffer.actions[:demo_rows].copy()
+    resume(run_dir, quiet=True, episodes=5)
+    buffer = pickle.loads((latest_checkpoint(run_dir) / "replay_buffer.pkl").read_bytes())
+    np.testing.assert_array_equal(buffer.actions[:demo_rows], kept)
+    assert int(buffer.demo.sum()) == demo_rows
 
 
 def test_the_push_frame_reaches_every_environment_of_a_relmogen_d_run():

@@ -1,0 +1,81 @@
+"""How closely a relmogen-d run's greedy policy follows its stored demonstrations.
+
+For every demonstration row kept in the latest checkpoint's replay (``algo.demo_keep``), the
+greedy action under the row's own cell masks is compared with the demonstrated one: the same
+action, the same part (base or arm), and, for arm rows, a pixel within one cell. It tells
+whether the margin term (``algo.demo_margin_weight``) fitted the demonstrations, apart from
+whether the policy then reaches such states by itself.
+
+    python scripts/demo_agreement.py runs/sgpd-dqfd/* --json results/sgpd-dqfd/demo_agreement.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pickle
+from pathlib import Path
+
+import numpy as np
+import torch as th
+from torch.nn import functional as F
+
+from relmogen.agents.dqn import RelmogenDQN, masked_argmax
+from relmogen.envs.subgoal_controls import YAW_BINS
+from relmogen.experiments.train import latest_checkpoint
+
+
+def decode(actions: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flat indices -> (is_arm, row i, column j), in the environment's index order."""
+    base_size = YAW_BINS * q * q
+    is_arm = actions >= base_size
+    cell = np.where(is_arm, actions - base_size, actions) % (q * q)
+    return is_arm, cell // q, cell % q
+
+
+def agreement(run: Path, batch: int = 64) -> dict:
+    checkpoint = latest_checkpoint(run)
+    if checkpoint is None:
+        raise SystemExit(f"{run}: no checkpoint")
+    model = RelmogenDQN.load(checkpoint / "model.zip", device="cpu")
+    buffer = pickle.loads((checkpoint / "replay_buffer.pkl").read_bytes())
+    rows = np.flatnonzero(getattr(buffer, "demo", np.zeros(0, bool)))
+    if not len(rows):
+        raise SystemExit(f"{run}: no demonstration rows in the replay (was algo.demo_keep set?)")
+    buffer.device = th.device("cpu")
+    greedy = []
+    with th.no_grad():
+        for env in range(buffer.n_envs):
+            for start in range(0, len(rows), batch):
+                part = rows[start:start + batch]
+                envs = np.full(len(part), env)
+                shown = th.as_tensor(buffer.actions[part, env].reshape(-1).astype(np.int64))
+                allowed = model.allowed(buffer.masks[part, env], len(part)) | F.one_hot(shown, model.action_space.n).bool()
+                q_values = model.q_net(buffer._batch(buffer.observations, part, envs, None))
+                greedy.append(np.stack([masked_argmax(q_values, allowed).numpy(), shown.numpy()], axis=1))
+    chosen, shown = np.concatenate(greedy).T
+    (chosen_arm, ci, cj), (shown_arm, si, sj) = decode(chosen, model.q), decode(shown, model.q)
+    arm = shown_arm
+    near = (chosen_arm == shown_arm) & (np.abs(ci - si) <= 1) & (np.abs(cj - sj) <= 1)
+    return {"run": run.name, "demo_rows": int(len(rows) * buffer.n_envs), "same_action": float(np.mean(chosen == shown)),
+            "same_part": float(np.mean(chosen_arm == shown_arm)), "arm_rows": int(arm.sum()),
+            "arm_same_action": float(np.mean((chosen == shown)[arm])) if arm.any() else None,
+            "arm_within_one_cell": float(np.mean(near[arm])) if arm.any() else None}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path)
+    parser.add_argument("--json", type=Path, help="also write the rows here")
+    args = parser.parse_args()
+    th.set_num_threads(1)
+    results = [agreement(run) for run in args.runs]
+    for row in results:
+        print(json.dumps(row))
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
