@@ -33,7 +33,24 @@ def decode(actions: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     return is_arm, cell // q, cell % q
 
 
-def agreement(run: Path, batch: int = 64) -> dict:
+def greedy_and_shown(model: RelmogenDQN, buffer, rows: np.ndarray, batch: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """Greedy and demonstrated actions of every environment's transition in ``rows``; the greedy
+    choice is masked with the row's own cell masks (plus the demonstrated action)."""
+    pairs = []
+    with th.no_grad():
+        for env in range(buffer.n_envs):
+            for start in range(0, len(rows), batch):
+                part = rows[start:start + batch]
+                shown = th.as_tensor(buffer.actions[part, env].reshape(-1).astype(np.int64))
+                allowed = model.allowed(buffer.masks[part, env], len(part))
+                allowed |= F.one_hot(shown, model.action_space.n).bool()
+                q_values = model.q_net(buffer._batch(buffer.observations, part, np.full(len(part), env), None))
+                pairs.append(np.stack([masked_argmax(q_values, allowed).numpy(), shown.numpy()], axis=1))
+    chosen, shown = np.concatenate(pairs).T
+    return chosen, shown
+
+
+def agreement(run: Path) -> dict:
     checkpoint = latest_checkpoint(run)
     if checkpoint is None:
         raise SystemExit(f"{run}: no checkpoint")
@@ -43,22 +60,11 @@ def agreement(run: Path, batch: int = 64) -> dict:
     if not len(rows):
         raise SystemExit(f"{run}: no demonstration rows in the replay (was algo.demo_keep set?)")
     buffer.device = th.device("cpu")
-    greedy = []
-    with th.no_grad():
-        for env in range(buffer.n_envs):
-            for start in range(0, len(rows), batch):
-                part = rows[start:start + batch]
-                envs = np.full(len(part), env)
-                shown = th.as_tensor(buffer.actions[part, env].reshape(-1).astype(np.int64))
-                allowed = model.allowed(buffer.masks[part, env], len(part)) | F.one_hot(shown, model.action_space.n).bool()
-                q_values = model.q_net(buffer._batch(buffer.observations, part, envs, None))
-                greedy.append(np.stack([masked_argmax(q_values, allowed).numpy(), shown.numpy()], axis=1))
-    chosen, shown = np.concatenate(greedy).T
-    (chosen_arm, ci, cj), (shown_arm, si, sj) = decode(chosen, model.q), decode(shown, model.q)
-    arm = shown_arm
-    near = (chosen_arm == shown_arm) & (np.abs(ci - si) <= 1) & (np.abs(cj - sj) <= 1)
-    return {"run": run.name, "demo_rows": int(len(rows) * buffer.n_envs), "same_action": float(np.mean(chosen == shown)),
-            "same_part": float(np.mean(chosen_arm == shown_arm)), "arm_rows": int(arm.sum()),
+    chosen, shown = greedy_and_shown(model, buffer, rows)
+    (chosen_arm, ci, cj), (arm, si, sj) = decode(chosen, model.q), decode(shown, model.q)
+    near = (chosen_arm == arm) & (np.abs(ci - si) <= 1) & (np.abs(cj - sj) <= 1)
+    return {"run": run.name, "demo_rows": len(chosen), "same_action": float(np.mean(chosen == shown)),
+            "same_part": float(np.mean(chosen_arm == arm)), "arm_rows": int(arm.sum()),
             "arm_same_action": float(np.mean((chosen == shown)[arm])) if arm.any() else None,
             "arm_within_one_cell": float(np.mean(near[arm])) if arm.any() else None}
 

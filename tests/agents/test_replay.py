@@ -1,10 +1,12 @@
-"""Resizing a loaded replay buffer keeps the newest transitions in time order."""
+"""Resizing a loaded replay buffer keeps the newest transitions in time order, and every kept demonstration."""
 
 import numpy as np
 import pytest
 from gymnasium import spaces
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
+from relmogen.agents.dqn import QMapReplayBuffer
+from relmogen.agents.qmap_network import NUM_MAPS
 from relmogen.agents.replay import resize_replay_buffer, stored_rows
 
 N_ENVS = 2
@@ -46,3 +48,23 @@ def test_shrinking_a_dict_buffer_keeps_the_newest_rows_of_every_array():
     for store in (buffer.observations, buffer.next_observations):
         assert all(np.array_equal(array[:, 0, 0], [5, 6, 7]) for array in store.values())
     assert buffer.sample(4).rewards.shape == (4, 1)
+
+
+def demonstration_buffer(rows: int) -> QMapReplayBuffer:
+    """A kept-demonstrations buffer: 3 demonstration rows (actions 20-22), then policy rows 0-9."""
+    space = spaces.Dict({"depth": spaces.Box(0.0, 3.0, (2, 2, 1), np.float32)})
+    buffer = QMapReplayBuffer(rows, space, spaces.Discrete(NUM_MAPS), device="cpu", keep_demonstrations=True)
+    obs = {"depth": np.zeros((1, 2, 2, 1), np.float32)}
+    for action, demonstration in [(20, True), (21, True), (22, True), *((a, False) for a in range(10))]:
+        buffer.adding_demonstrations = demonstration
+        buffer.add(obs, obs, np.array([[action]]), np.zeros(1), np.zeros(1), [{}])
+    buffer.adding_demonstrations = False
+    return buffer
+
+
+def test_shrinking_keeps_every_kept_demonstration_and_the_newest_policy_rows():
+    buffer = demonstration_buffer(8)
+    resize_replay_buffer(buffer, 5)
+    assert buffer.actions[:, 0, 0].tolist() == [20, 21, 22, 8, 9] and buffer.demo.tolist() == [True] * 3 + [False] * 2
+    with pytest.raises(ValueError, match="3 kept demonstration rows do not leave room in 3 rows"):
+        resize_replay_buffer(demonstration_buffer(8), 3)
