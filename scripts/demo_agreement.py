@@ -21,16 +21,8 @@ import torch as th
 from torch.nn import functional as F
 
 from relmogen.agents.dqn import RelmogenDQN, masked_argmax
-from relmogen.envs.subgoal_controls import YAW_BINS
+from relmogen.envs.subgoal_controls import decode_indices
 from relmogen.experiments.train import latest_checkpoint
-
-
-def decode(actions: np.ndarray, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Flat indices -> (is_arm, row i, column j), in the environment's index order."""
-    base_size = YAW_BINS * q * q
-    is_arm = actions >= base_size
-    cell = np.where(is_arm, actions - base_size, actions) % (q * q)
-    return is_arm, cell // q, cell % q
 
 
 def greedy_and_shown(model: RelmogenDQN, buffer, rows: np.ndarray, batch: int = 64) -> tuple[np.ndarray, np.ndarray]:
@@ -61,7 +53,7 @@ def agreement(run: Path) -> dict:
         raise SystemExit(f"{run}: no demonstration rows in the replay (was algo.demo_keep set?)")
     buffer.device = th.device("cpu")
     chosen, shown = greedy_and_shown(model, buffer, rows)
-    (chosen_arm, ci, cj), (arm, si, sj) = decode(chosen, model.q), decode(shown, model.q)
+    (chosen_arm, _, ci, cj), (arm, _, si, sj) = decode_indices(chosen, model.q), decode_indices(shown, model.q)
     near = (chosen_arm == arm) & (np.abs(ci - si) <= 1) & (np.abs(cj - sj) <= 1)
     return {"run": run.name, "demo_rows": len(chosen), "same_action": float(np.mean(chosen == shown)),
             "same_part": float(np.mean(chosen_arm == arm)), "arm_rows": int(arm.sum()),

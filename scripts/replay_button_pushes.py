@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from relmogen.agents.replay import stored_rows
-from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS
+from relmogen.envs.subgoal_controls import Q_DOWNSAMPLE, decode_indices
 from relmogen.experiments.train import latest_checkpoint
 
 PRESS_REWARD = 5.0
@@ -42,8 +42,7 @@ def push_counts(replay) -> dict[str, int]:
     rewards = replay.rewards[rows].reshape(-1)
     cells = cap_cells(rgb)
     q = cells.shape[1]
-    arm = actions >= YAW_BINS * q * q
-    _, i, j = np.unravel_index(np.where(arm, actions - YAW_BINS * q * q, 0), (PUSH_BINS, q, q))
+    arm, _, i, j = decode_indices(actions, q)
     in_view = cells.any(axis=(1, 2))
     on_cap = arm & cells[np.arange(len(actions)), i, j]
     pressed = rewards >= PRESS_REWARD

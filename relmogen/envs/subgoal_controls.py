@@ -158,6 +158,16 @@ class SubgoalRControl(SubgoalControl):
         return self.outcome(*(self.execute_base(*target) if part == "base" else self.execute_arm(*target)))
 
 
+def decode_indices(indices, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """SGP-D action indices (any shape) -> (is_arm, yaw or push bin, cell row i, cell column j):
+    the L base maps come first, then the K arm maps, each Q x Q."""
+    indices = np.asarray(indices)
+    base_size = YAW_BINS * q * q
+    is_arm = indices >= base_size
+    bin_, cell = np.divmod(np.where(is_arm, indices - base_size, indices), q * q)
+    return is_arm, bin_, *np.divmod(cell, q)
+
+
 class SubgoalDControl(SubgoalControl):
     name = "subgoal-d"
 
@@ -181,11 +191,8 @@ class SubgoalDControl(SubgoalControl):
     # ------------------------------------------------------------------- index mapping
     def decode(self, index: int) -> tuple[str, int, int, int]:
         """Action index -> (part, bin, i, j)."""
-        if index < self.num_base:
-            l, i, j = np.unravel_index(index, (YAW_BINS, self.q, self.q))
-            return "base", int(l), int(i), int(j)
-        k, i, j = np.unravel_index(index - self.num_base, (PUSH_BINS, self.q, self.q))
-        return "arm", int(k), int(i), int(j)
+        is_arm, bin_, i, j = decode_indices(index, self.q)
+        return "arm" if is_arm else "base", int(bin_), int(i), int(j)
 
     def encode(self, part: str, bin_: int, i: int, j: int) -> int:
         if part == "base":

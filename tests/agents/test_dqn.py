@@ -170,16 +170,24 @@ def test_conservative_gap_is_logsumexp_over_allowed_actions_minus_the_taken_one(
     assert float(everything) > float(gap)  # masked cells are left out of the logsumexp
 
 
-def test_conservative_updates_lower_untried_actions_below_the_taken_ones():
+def updated_on_one_batch(make_batch, updates: int, **weights) -> tuple[np.ndarray, th.Tensor, QMapReplaySamples]:
+    """A fresh small model updated ``updates`` times on one batch: the (TD, conservative, margin)
+    losses of every update, the final Q values on the batch, and the batch."""
     dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
-                      policy_kwargs=SMALL_NET, seed=0, conservative_weight=5.0, learning_rate=3e-3)
+                      policy_kwargs=SMALL_NET, seed=0, learning_rate=3e-3, **weights)
     dqn.policy.set_training_mode(True)
-    data = conservative_batch(dqn)
-    gaps = [dqn._gradient_step(data)[1] for _ in range(30)]
+    data = make_batch(dqn)
+    losses = np.array([dqn._gradient_step(data) for _ in range(updates)])
     with th.no_grad():
         q_values = dqn.q_net(data.observations)
-    allowed = allowed_actions(data.masks, dqn.subgoal_parts)
     dqn.env.close()
+    return losses, q_values, data
+
+
+def test_conservative_updates_lower_untried_actions_below_the_taken_ones():
+    losses, q_values, data = updated_on_one_batch(conservative_batch, 30, conservative_weight=5.0)
+    gaps = losses[:, 1]
+    allowed = allowed_actions(data.masks)
     assert min(gaps) >= 0 and gaps[-1] < gaps[0] - 1.0  # from about log(60 allowed actions) = 4.1
     for b, action in enumerate(data.actions.ravel()):
         others = allowed[b].clone()
@@ -360,14 +368,9 @@ def test_demonstration_margin_is_dqfds_large_margin_loss_on_demonstration_rows(m
 
 
 def test_margin_updates_make_each_demonstrated_action_the_greedy_one():
-    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
-                      policy_kwargs=SMALL_NET, seed=0, demo_margin_weight=5.0, learning_rate=3e-3)
-    dqn.policy.set_training_mode(True)
-    data = demonstration_batch(dqn)
-    margins = [dqn._gradient_step(data)[2] for _ in range(40)]
-    with th.no_grad():
-        greedy = masked_argmax(dqn.q_net(data.observations), allowed_actions(data.masks, dqn.subgoal_parts))
-    dqn.env.close()
+    losses, q_values, data = updated_on_one_batch(demonstration_batch, 40, demo_margin_weight=5.0)
+    margins = losses[:, 2]
+    greedy = masked_argmax(q_values, allowed_actions(data.masks))
     assert margins[0] > DQFD_MARGIN and margins[-1] < 0.1 * margins[0]
     demo = data.demo.numpy()
     np.testing.assert_array_equal(greedy.numpy()[demo], data.actions.ravel().numpy()[demo])
