@@ -40,6 +40,15 @@ large-margin term (Hester et al., 2018) on the batch's demonstration rows (``alg
 by ``DQFD_MARGIN``: ``max_a [Q(s, a) + 0.8 [a != a_E]] - Q(s, a_E)``. The ``cpu`` preset's
 16 x 16 maps hold 3,072 arm actions, and a demonstrated press is one of them: the TD loss alone
 left the few demonstrated presses below their untried neighbours (``results/sgpd-demos``).
+
+N-step returns (``n_step_returns`` = n > 1; off by default, DQfD and Rainbow use them): the
+target of a stored transition sums the discounted rewards of up to n consecutive stored steps of
+its environment and bootstraps with gamma^k from the k-th next state (k <= n, fewer at an episode
+end, at the newest row and where kept demonstration rows border policy rows). A +10 success
+reaches the press that made it possible in one update instead of n; and a subgoal that changes
+nothing, repeated (its next state is its own state), loses value gamma^n per target update
+instead of gamma. ``QMapReplayBuffer`` computes the windows at sampling time from the rows it
+already stores, as SB3's ``NStepReplayBuffer`` does (which does not take Dict observations).
 """
 
 from __future__ import annotations
@@ -218,12 +227,16 @@ class QMapReplayBuffer(DictReplayBuffer):
 
     Rows added while ``adding_demonstrations`` is set are marked in ``demo``. With
     ``keep_demonstrations`` the ring skips them, so they stay for the whole run (DQfD keeps its
-    demonstrations the same way; ours, off by default)."""
+    demonstrations the same way; ours, off by default).
+
+    With ``n_step_returns`` > 1 samples carry n-step rewards and their ``discounts`` (module doc);
+    ``RelmogenDQN`` sets it and ``gamma`` before sampling."""
 
     def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Discrete,
                  *args: Any, keep_demonstrations: bool = False, **kwargs: Any):
         super().__init__(buffer_size, observation_space, action_space, *args, **kwargs)
         self.keep_demonstrations = bool(keep_demonstrations)
+        self.n_step_returns, self.gamma = 1, 0.99
         self.adding_demonstrations = False
         self.acting_masks = None
         self.demo = np.zeros(self.buffer_size, dtype=bool)
@@ -240,7 +253,8 @@ class QMapReplayBuffer(DictReplayBuffer):
         if "next_base_masks" in state:
             base = state.pop("next_base_masks")
             state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
-        state = {"keep_demonstrations": False, "adding_demonstrations": False, "acting_masks": None, **state}
+        state = {"keep_demonstrations": False, "adding_demonstrations": False, "acting_masks": None,
+                 "n_step_returns": 1, "gamma": 0.99, **state}
         self.__dict__.update(state)
         if "masks" not in state:
             self.masks = masks_before(self.next_masks, self.dones, self.pos, self.full)
@@ -279,18 +293,35 @@ class QMapReplayBuffer(DictReplayBuffer):
 
     def _get_samples(self, batch_inds: np.ndarray, env=None) -> QMapReplaySamples:
         envs = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
-        dones = self.dones[batch_inds, envs] * (1 - self.timeouts[batch_inds, envs])
-        rewards = self._normalize_reward(self.rewards[batch_inds, envs].reshape(-1, 1), env)
+        rows = self.n_step_rows(batch_inds, envs)  # (B, n): the steps each target sums, rows[:, 0] = batch_inds
+        steps = (rows >= 0).sum(axis=1)
+        last = rows[np.arange(len(rows)), steps - 1]
+        weights = np.where(rows >= 0, self.gamma ** np.arange(rows.shape[1], dtype=np.float32), 0.0)
+        rewards = (self._normalize_reward(self.rewards[rows, envs[:, None]], env) * weights).sum(axis=1)
+        discounts = None if self.n_step_returns == 1 else self.to_torch((self.gamma ** steps).astype(np.float32)).reshape(-1, 1)
+        dones = self.dones[last, envs] * (1 - self.timeouts[last, envs])
         return QMapReplaySamples(
             observations=self._batch(self.observations, batch_inds, envs, env),
             actions=self.to_torch(self.actions[batch_inds, envs]),
-            next_observations=self._batch(self.next_observations, batch_inds, envs, env),
+            next_observations=self._batch(self.next_observations, last, envs, env),
             dones=self.to_torch(dones).reshape(-1, 1),
-            rewards=self.to_torch(rewards),
-            next_masks=self.to_torch(self.next_masks[batch_inds, envs]),
+            rewards=self.to_torch(rewards.astype(np.float32)).reshape(-1, 1),
+            discounts=discounts,
+            next_masks=self.to_torch(self.next_masks[last, envs]),
             masks=self.to_torch(self.masks[batch_inds, envs]),
             demo=self.to_torch(self.demo[batch_inds]),
         )
+
+    def n_step_rows(self, batch_inds: np.ndarray, envs: np.ndarray) -> np.ndarray:
+        """(B, n) rows of the up to ``n_step_returns`` consecutive steps starting at each sampled row,
+        -1 past the window's end: the environment's episode end (terminal or time limit), the newest
+        row (the next one is older), or a row whose ``demo`` flag differs (the ring skipped kept
+        demonstrations there)."""
+        rows = (batch_inds[:, None] + np.arange(self.n_step_returns)) % self.buffer_size
+        last_step = self.dones[rows, envs[:, None]].astype(bool) | (rows == (self.pos - 1) % self.buffer_size)
+        last_step[:, :-1] |= self.demo[rows[:, 1:]] != self.demo[rows[:, :-1]]
+        after_end = np.cumsum(last_step, axis=1) - last_step > 0
+        return np.where(after_end, -1, rows)
 
 
 def masks_before(next_masks: np.ndarray, dones: np.ndarray, pos: int, full: bool) -> np.ndarray:
@@ -312,13 +343,14 @@ class RelmogenDQN(DQN):
                  gamma: float = 0.99, target_update_interval: int = 1024, tau: float = 1.0,
                  max_grad_norm: float = 10.0, exploration_initial_eps: float = 0.8,
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
-                 conservative_weight: float = 0.0, demo_margin_weight: float = 0.0,
+                 conservative_weight: float = 0.0, demo_margin_weight: float = 0.0, n_step_returns: int = 1,
                  replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
         self.mask_arm = bool(mask_arm)
         self.exploration_steps = exploration_steps
         self.conservative_weight = float(conservative_weight)
         self.demo_margin_weight = float(demo_margin_weight)
+        self.n_step_returns = int(n_step_returns)  # not SB3's ``n_steps``: that one wants SB3's own buffer
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -410,6 +442,8 @@ class RelmogenDQN(DQN):
     def train(self, gradient_steps: int, batch_size: int = 100) -> None:
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
+        if isinstance(self.replay_buffer, QMapReplayBuffer):  # both may change on a resume
+            self.replay_buffer.n_step_returns, self.replay_buffer.gamma = self.n_step_returns, self.gamma
         losses = np.array([self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env))
                            for _ in range(gradient_steps)])
         self._n_updates += gradient_steps

@@ -63,6 +63,7 @@ class AlgoConfig(_Strict):
     demo_episodes: int = Field(0, ge=0)  # task-oracle episodes put in the replay before learning (ours; 0 = off)
     demo_keep: bool = False  # relmogen-d: the replay never overwrites the demonstrations (ours)
     demo_margin_weight: float = Field(0.0, ge=0)  # relmogen-d: DQfD's large-margin term on them (ours; 0 = off)
+    n_step_returns: int | None = Field(None, ge=1, le=25)  # relmogen-d: n-step TD targets (DQfD, Rainbow); 1 = off
 
 
 class RunSettings(_Strict):
@@ -102,6 +103,12 @@ class TrainConfig(_Strict):
                              f"not {self.algo}")
         if uses and not params.demo_episodes:
             raise ValueError(f"{' and '.join(uses)}: these act on demonstrations; set algo.demo_episodes too")
+        return self
+
+    @model_validator(mode="after")
+    def _n_step_returns_need_relmogen_d(self) -> TrainConfig:
+        if (self.algo_params.n_step_returns or 1) > 1 and self.algo != "relmogen-d":
+            raise ValueError(f"n_step_returns: relmogen-d only (its replay buffer computes them), not {self.algo}")
         return self
 
 
@@ -164,11 +171,11 @@ def with_overrides(config: TrainConfig, overrides: list[str]) -> TrainConfig:
 RESUMABLE_ALGO_KEYS = frozenset({
     "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
     "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-    "exploration_steps", "conservative_weight", "demo_episodes", "demo_margin_weight",
+    "exploration_steps", "conservative_weight", "demo_episodes", "demo_margin_weight", "n_step_returns",
 })
 DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
                            "exploration_final_eps", "exploration_steps", "conservative_weight",
-                           "demo_margin_weight"})
+                           "demo_margin_weight", "n_step_returns"})
 
 
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:

@@ -48,6 +48,12 @@ def test_a_resumed_run_may_change_its_learning_schedule_and_reports_what_changed
     assert override_config(config, ["algo.conservative_weight=0.5"])[1] == {"conservative_weight": 0.5}
     with_demos = resolve_config("ButtonDoorNav", "relmogen-d", preset="cpu", overrides=["algo.demo_episodes=5"])
     assert override_config(with_demos, ["algo.demo_margin_weight=2"])[1] == {"demo_margin_weight": 2.0}
+    assert override_config(config, ["algo.n_step_returns=5"])[1] == {"n_step_returns": 5}
+
+
+def test_n_step_returns_are_refused_for_the_sac_family():
+    with pytest.raises(ValueError, match="n_step_returns: relmogen-d only"):
+        resolve_config("PointNav", "sac", preset="tiny", overrides=["algo.n_step_returns=3"])
 
 
 @pytest.mark.parametrize(("algo", "overrides", "message"), [

@@ -118,11 +118,12 @@ def test_demonstrations_are_added_once_and_topped_up_on_resume(tmp_path):
 def test_kept_demonstrations_outlive_a_full_ring_and_a_resume(tmp_path):
     config = resolve_config("ButtonDoorNav", "relmogen-d", seed=0, preset="tiny", episodes=3,
                             overrides=["algo.demo_episodes=2", "algo.demo_keep=true", "algo.demo_margin_weight=1",
-                                       "algo.buffer_size=40"])
+                                       "algo.buffer_size=40", "algo.n_step_returns=3"])
     run_dir = train(config, tmp_path, quiet=True)  # about 20 demonstration rows and 30 policy rows in 40
     buffer = pickle.loads((latest_checkpoint(run_dir) / "replay_buffer.pkl").read_bytes())
     demo_rows = int(buffer.demo.sum())
     assert buffer.full and buffer.keep_demonstrations and demo_rows >= 2
+    assert buffer.n_step_returns == 3  # set by the algorithm before its first sample
     assert buffer.demo[:demo_rows].all()  # the first rows, never overwritten
     kept = buffer.actions[:demo_rows].copy()
     resume(run_dir, quiet=True, episodes=5)
