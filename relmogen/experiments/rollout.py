@@ -2,7 +2,8 @@
 
 Every command that prints metrics uses the same keys: ``success_rate``, ``spl``,
 ``closed_5``, ``closed_10`` (items closed / chairs tucked at the tight and loose tolerance,
-mean per episode), ``episodes``, plus MG statistics when subgoal controls are used.
+mean per episode), ``episodes``, plus MG statistics when subgoal controls are used
+(``repeated_subgoal_rate``: the share of subgoals equal to the previous one of their episode).
 """
 
 from __future__ import annotations
@@ -39,12 +40,15 @@ def run_episode(env: RelmogenEnv, act: Policy, seed: int, record_frames: bool = 
     frames = [env.third_person_image()] if record_frames else []
     if record_frames:
         env.frame_hook = _frame_recorder(env, frames)
-    subgoals, done, info = [], False, {}
+    subgoals, done, info, previous = [], False, {}, None
     while not done:
-        obs, _, terminated, truncated, info = env.step(act(obs))
+        action = act(obs)
+        obs, _, terminated, truncated, info = env.step(action)
         done = terminated or truncated
         if "subgoal_type" in info:
             subgoals.append({k: info[k] for k in ("subgoal_type", "plan_found", "reason", "planner")})
+            subgoals[-1]["repeat"] = previous is not None and np.array_equal(action, previous)
+        previous = action
         if record_frames:
             frames.append(env.third_person_image())
     env.frame_hook = None
@@ -108,4 +112,6 @@ def _subgoal_statistics(records: list[EpisodeRecord]) -> dict[str, float]:
         "base_plan_rate": float(np.mean([s["plan_found"] for s in base])) if base else 0.0,
         "arm_plan_rate": float(np.mean([s["plan_found"] for s in subgoals if s["subgoal_type"] == "arm"]))
         if len(base) < len(subgoals) else 0.0,
+        # A deterministic policy whose subgoal changed nothing sees the same observation and repeats it.
+        "repeated_subgoal_rate": float(np.mean([s.get("repeat", False) for s in subgoals])),
     }
