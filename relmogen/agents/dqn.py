@@ -298,7 +298,8 @@ class QMapReplayBuffer(DictReplayBuffer):
         last = rows[np.arange(len(rows)), steps - 1]
         weights = np.where(rows >= 0, self.gamma ** np.arange(rows.shape[1], dtype=np.float32), 0.0)
         rewards = (self._normalize_reward(self.rewards[rows, envs[:, None]], env) * weights).sum(axis=1)
-        discounts = None if self.n_step_returns == 1 else self.to_torch((self.gamma ** steps).astype(np.float32)).reshape(-1, 1)
+        discounts = (None if self.n_step_returns == 1  # one-step samples: the algorithm's gamma applies
+                     else self.to_torch((self.gamma ** steps).astype(np.float32)).reshape(-1, 1))
         dones = self.dones[last, envs] * (1 - self.timeouts[last, envs])
         return QMapReplaySamples(
             observations=self._batch(self.observations, batch_inds, envs, env),
