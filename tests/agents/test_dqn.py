@@ -307,12 +307,20 @@ def tiny_buffer(rows: int, keep: bool) -> QMapReplayBuffer:
     return QMapReplayBuffer(rows, space, spaces.Discrete(NUM_MAPS), device="cpu", keep_demonstrations=keep)
 
 
-def add_rows(buffer: QMapReplayBuffer, actions, demonstrations: bool) -> None:
-    buffer.adding_demonstrations = demonstrations
-    obs = {"depth": np.zeros((1, 2, 2, 1), np.float32)}
-    for action in actions:
-        buffer.add(obs, obs, np.array([[action]]), np.zeros(1), np.zeros(1), [{}])
+def add_step(buffer: QMapReplayBuffer, row_id: int, reward: float = 0.0, done=False, timeout=False,
+             demo=False) -> None:
+    """One transition with action ``row_id`` whose next observation's depth is ``row_id`` too (to see
+    which row a target bootstraps from)."""
+    buffer.adding_demonstrations = demo
+    obs, next_obs = {"depth": np.zeros((1, 2, 2, 1), np.float32)}, {"depth": np.full((1, 2, 2, 1), row_id, np.float32)}
+    buffer.add(obs, next_obs, np.array([[row_id]]), np.array([reward]), np.array([done or timeout]),
+               [{"TimeLimit.truncated": timeout}])
     buffer.adding_demonstrations = False
+
+
+def add_rows(buffer: QMapReplayBuffer, actions, demonstrations: bool) -> None:
+    for action in actions:
+        add_step(buffer, action, demo=demonstrations)
 
 
 @pytest.mark.parametrize("keep", [True, False])
@@ -381,15 +389,6 @@ def test_margin_updates_make_each_demonstrated_action_the_greedy_one():
 
 
 # ----------------------------------------------------------------- n-step returns
-def add_step(buffer: QMapReplayBuffer, row_id: int, reward: float, done=False, timeout=False, demo=False) -> None:
-    """One transition whose next observation's depth is ``row_id`` (to see which row a target bootstraps from)."""
-    buffer.adding_demonstrations = demo
-    obs, next_obs = {"depth": np.zeros((1, 2, 2, 1), np.float32)}, {"depth": np.full((1, 2, 2, 1), row_id, np.float32)}
-    buffer.add(obs, next_obs, np.array([[row_id]]), np.array([reward]), np.array([done or timeout]),
-               [{"TimeLimit.truncated": timeout}])
-    buffer.adding_demonstrations = False
-
-
 def n_step_samples(buffer: QMapReplayBuffer, rows) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
     data = buffer._get_samples(np.array(rows))
     discounts = None if data.discounts is None else data.discounts.numpy().ravel()
