@@ -10,7 +10,7 @@
     relmogen train --task T --algo A [--seed S] [--preset P] [--episodes N] [--max-hours H]
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--episodes N] [--base-planner X] [--arm-planner Y]
-                  [--arm-collision on|off] [--scene A|B] [--stochastic] [--json]
+                  [--arm-collision on|off] [--scene A|B] [--stochastic] [--skip-no-ops] [--json]
     relmogen export RUN_DIR_OR_CHECKPOINT --out DIR
     relmogen report RUN_DIRS... --out DIR
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
@@ -84,7 +84,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
                            args.arm_collision == "on", args.scene, args.device, quiet=args.json,
-                           stochastic=args.stochastic)
+                           stochastic=args.stochastic, skip_no_ops=args.skip_no_ops)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
     return 0
 
@@ -224,6 +224,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--stochastic", action="store_true",
                           help="sample SGP-R/SAC actions instead of the deterministic mean; "
                                "SGP-D acts epsilon-greedy at its final training epsilon")
+    evaluate.add_argument("--skip-no-ops", action="store_true",
+                          help="SGP-D only, a test-time rule reported as its own policy: a subgoal after which the "
+                               "camera image and local map did not change is not chosen again until they do")
     evaluate.add_argument("--json", action="store_true")
     evaluate.set_defaults(func=cmd_eval)
 

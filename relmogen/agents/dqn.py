@@ -68,6 +68,7 @@ from stable_baselines3.dqn.policies import DQNPolicy
 from torch.nn import functional as F
 
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
+from relmogen.envs.relmogen_env import view_unchanged
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
 ALL_PARTS = ("base", "arm")
@@ -113,6 +114,15 @@ def sample_allowed(allowed: np.ndarray) -> np.ndarray:
     return np.array([np.random.choice(np.flatnonzero(row)) for row in allowed], dtype=np.int64)
 
 
+def without_actions(allowed: th.Tensor, excluded: list[int]) -> th.Tensor:
+    """``allowed`` (N, A) with the ``excluded`` indices disallowed, except in rows left with none."""
+    narrowed = allowed.clone()
+    narrowed[:, th.as_tensor(excluded, dtype=th.long, device=allowed.device)] = False
+    empty = ~narrowed.any(dim=1)
+    narrowed[empty] = allowed[empty]
+    return narrowed
+
+
 def without_arm_mask(masks):
     """A copy of (..., 2, Q, Q) masks (numpy or torch) with every arm cell allowed."""
     masks = masks.clone() if th.is_tensor(masks) else np.array(masks, dtype=bool)
@@ -152,15 +162,50 @@ class CellMaskTracker(VecEnvWrapper):
         return observations, rewards, dones, infos
 
 
-def env_policy(model: RelmogenDQN, env, deterministic: bool = True):
+class NoOpMemory:
+    """The test-time rule of ``relmogen eval --skip-no-ops`` (ours; never used in training).
+
+    A deterministic SGP-D policy whose subgoal changed nothing it sees gets the same observation
+    back and chooses the same subgoal until the episode ends. With this rule a subgoal after
+    which the view was unchanged (``view_unchanged``) is excluded until the view changes, so the
+    policy falls back to its next best subgoal. Call ``clear`` at every episode start.
+    """
+
+    def __init__(self):
+        self.clear()
+
+    def clear(self) -> None:
+        self.previous: tuple[dict, int] | None = None
+        self.excluded: list[int] = []
+
+    def excluded_now(self, obs: dict) -> list[int]:
+        """The actions to exclude in ``obs``, given the previous observation and action."""
+        if self.previous is not None and view_unchanged(self.previous[0], obs):
+            self.excluded.append(self.previous[1])
+        else:
+            self.excluded = []
+        return self.excluded
+
+    def chose(self, obs: dict, action: int) -> None:
+        self.previous = ({key: np.array(value) for key, value in obs.items()}, int(action))
+
+
+def env_policy(model: RelmogenDQN, env, deterministic: bool = True, skip_no_ops: bool = False):
     """``obs -> action`` for a single (unvectorised) ``RelmogenEnv``, masked with its current
-    cell masks (read from ``env.unwrapped.control``), e.g. for ``rollout.run_episodes``."""
+    cell masks (read from ``env.unwrapped.control``), e.g. for ``rollout.run_episodes``.
+    ``skip_no_ops`` applies ``NoOpMemory``; the returned callable's ``reset`` starts an episode."""
     control = env.unwrapped.control
+    memory = NoOpMemory() if skip_no_ops else None
 
     def act(obs):
         masks = info_masks(control.extra_info(), model.q)
-        return model.predict(obs, deterministic=deterministic, masks=masks)[0]
+        excluded = memory.excluded_now(obs) if memory else None
+        action = model.predict(obs, deterministic=deterministic, masks=masks, excluded=excluded)[0]
+        if memory:
+            memory.chose(obs, action)
+        return action
 
+    act.reset = memory.clear if memory else (lambda: None)
     return act
 
 
@@ -414,12 +459,15 @@ class RelmogenDQN(DQN):
         super()._store_transition(replay_buffer, buffer_action, new_obs, reward, dones, infos)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False,
-                masks: np.ndarray | None = None):
-        """Epsilon-greedy (one coin per observation) over allowed actions; ``masks`` (N, 2, Q, Q) or (2, Q, Q)."""
+                masks: np.ndarray | None = None, excluded: list[int] | None = None):
+        """Epsilon-greedy (one coin per observation) over allowed actions; ``masks`` (N, 2, Q, Q) or (2, Q, Q);
+        ``excluded`` action indices are disallowed in every row unless that leaves a row nothing."""
         self.policy.set_training_mode(False)
         obs, vectorized = self.policy.obs_to_tensor(observation)
         n = next(iter(obs.values())).shape[0]
         allowed = self.allowed(masks, n)
+        if excluded:
+            allowed = without_actions(allowed, excluded)
         explore = np.zeros(n, bool) if deterministic else np.random.rand(n) < self.exploration_rate
         actions = np.empty(n, dtype=np.int64)
         if not explore.all():

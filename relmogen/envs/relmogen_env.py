@@ -31,6 +31,15 @@ from relmogen.tasks import TaskContext, task_class
 
 CONTROL_DT = 0.1  # seconds per joint-velocity action (paper Section IV-B)
 THIRD_PERSON_SIZE = (320, 240)
+VIEW_KEYS = ("rgb", "local_map")
+
+
+def view_unchanged(before: dict, after: dict) -> bool:
+    """True when a step left the colour image and the local map (where present) exactly as they
+    were: what a subgoal that found no plan, or pushed and moved nothing, leaves behind. Depth and
+    the task vector are not compared: after an executed push the arm's return leaves a few
+    depth pixels and the joint readings a hair different."""
+    return all(np.array_equal(before[key], after[key]) for key in VIEW_KEYS if key in before)
 
 
 class RelmogenEnv(gym.Env):

@@ -6,6 +6,10 @@ Atari): a deterministic subgoal policy whose subgoal finds no plan sees the same
 again (the step was a no-op) and repeats it until the episode ends, so both figures are worth
 reporting. Action sampling is seeded from ``seed``.
 
+``skip_no_ops=True`` (SGP-D only; ours) adds a test-time rule, ``relmogen.agents.dqn.NoOpMemory``:
+a subgoal after which the view did not change is not chosen again until it does. It is reported
+as its own policy (``deterministic-skip-no-ops``), never as the paper's greedy figure.
+
 The planners, arm collision checking and scene can differ from training: that is how the
 paper's planner-swap (Table II) and scene-transfer results are measured.
 """
@@ -45,21 +49,27 @@ def seeded_action_sampling(seed: int) -> Iterator[None]:
 
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
-                   quiet: bool = False, stochastic: bool = False) -> dict:
+                   quiet: bool = False, stochastic: bool = False, skip_no_ops: bool = False) -> dict:
+    if skip_no_ops and config.algo != "relmogen-d":
+        raise ValueError(f"--skip-no-ops excludes a discrete subgoal that changed nothing; it needs relmogen-d, "
+                         f"not {config.algo}")
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
-    if config.algo == "relmogen-d":
-        act = env_policy(model, env, deterministic=not stochastic)  # over the free base cells only
+    if config.algo == "relmogen-d":  # over the free base cells only
+        act = env_policy(model, env, deterministic=not stochastic, skip_no_ops=skip_no_ops)
+        on_reset = act.reset
     else:
-        act = lambda obs: model.predict(obs, deterministic=not stochastic)[0]  # noqa: E731
+        act, on_reset = (lambda obs: model.predict(obs, deterministic=not stochastic)[0]), None
     try:
         with seeded_action_sampling(seed):
-            records = run_episodes(env, act, episodes, seed, quiet, description=f"eval {config.task}")
+            records = run_episodes(env, act, episodes, seed, quiet, on_reset=on_reset,
+                                   description=f"eval {config.task}")
     finally:
         env.close()
+    policy = ("stochastic" if stochastic else "deterministic") + ("-skip-no-ops" if skip_no_ops else "")
     settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name,
-                "policy": "stochastic" if stochastic else "deterministic"}
+                "policy": policy}
     if stochastic and config.algo == "relmogen-d":
         settings["epsilon"] = float(model.exploration_rate)
     if config.control != "joint":
@@ -85,14 +95,15 @@ def load_policy(path: Path, device: str = "auto"):
 
 def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | None = None,
                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
-                  device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False) -> dict:
+                  device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False,
+                  skip_no_ops: bool = False) -> dict:
     model, config, run_dir = load_policy(path, device)
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
-                            stochastic)
+                            stochastic, skip_no_ops)
     if save:
+        policy = result["policy"].replace("deterministic", "").replace("-", "_").lstrip("_")
         name = f"eval_{result.get('scene')}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_" \
-               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep" \
-               f"{'_stochastic' if result['policy'] == 'stochastic' else ''}.json"
+               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep{'_' + policy if policy else ''}.json"
         (run_dir / "eval").mkdir(exist_ok=True)
         (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
     return result

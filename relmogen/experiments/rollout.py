@@ -3,7 +3,9 @@
 Every command that prints metrics uses the same keys: ``success_rate``, ``spl``,
 ``closed_5``, ``closed_10`` (items closed / chairs tucked at the tight and loose tolerance,
 mean per episode), ``episodes``, plus MG statistics when subgoal controls are used
-(``repeated_subgoal_rate``: the share of subgoals equal to the previous one of their episode).
+(``repeated_subgoal_rate``: the share of subgoals equal to the previous one of their episode;
+``unchanged_view_rate``: the share after which the camera image and local map were exactly as
+before, ``relmogen.envs.relmogen_env.view_unchanged``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import Callable
 import numpy as np
 from rich.progress import Progress
 
-from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.envs.relmogen_env import RelmogenEnv, view_unchanged
 
 Policy = Callable[[dict], np.ndarray]
 
@@ -43,11 +45,13 @@ def run_episode(env: RelmogenEnv, act: Policy, seed: int, record_frames: bool = 
     subgoals, done, info, previous = [], False, {}, None
     while not done:
         action = act(obs)
+        before = obs
         obs, _, terminated, truncated, info = env.step(action)
         done = terminated or truncated
         if "subgoal_type" in info:
             subgoals.append({k: info[k] for k in ("subgoal_type", "plan_found", "reason", "planner")})
             subgoals[-1]["repeat"] = previous is not None and np.array_equal(action, previous)
+            subgoals[-1]["unchanged_view"] = view_unchanged(before, obs)
         previous = action
         if record_frames:
             frames.append(env.third_person_image())
@@ -114,4 +118,5 @@ def _subgoal_statistics(records: list[EpisodeRecord]) -> dict[str, float]:
         if len(base) < len(subgoals) else 0.0,
         # A deterministic policy whose subgoal changed nothing sees the same observation and repeats it.
         "repeated_subgoal_rate": float(np.mean([s.get("repeat", False) for s in subgoals])),
+        "unchanged_view_rate": float(np.mean([s.get("unchanged_view", False) for s in subgoals])),
     }

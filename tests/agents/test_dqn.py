@@ -17,6 +17,7 @@ from relmogen.agents.dqn import (
     env_policy,
     masked_argmax,
     masks_before,
+    without_actions,
 )
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.envs.relmogen_env import RelmogenEnv
@@ -257,6 +258,27 @@ def test_greedy_choice_never_picks_an_occupied_cell(model):
     finally:
         with th.no_grad():
             head.bias.copy_(saved)
+
+
+def test_skip_no_ops_excludes_a_subgoal_whose_view_did_not_change_until_it_does(model):
+    env = model.env.envs[0]
+    obs, _ = env.reset(seed=3)
+    greedy, skipping = env_policy(model, env), env_policy(model, env, skip_no_ops=True)
+    first = skipping(obs)
+    assert first == greedy(obs)
+    second, third = skipping(obs), skipping(obs)  # the same view again: the earlier choices are excluded
+    assert len({int(first), int(second), int(third)}) == 3
+    changed = dict(obs, rgb=obs["rgb"].copy())
+    changed["rgb"][0, 0] ^= 255
+    assert skipping(changed) == greedy(changed)  # a new view: nothing excluded
+    skipping.reset()
+    assert skipping(obs) == first and skipping(changed) == greedy(changed)
+
+
+def test_excluding_every_allowed_action_leaves_the_row_as_it_was():
+    allowed = th.tensor([[True, False, True], [True, True, False]])
+    narrowed = without_actions(allowed, [0, 2])
+    assert narrowed.tolist() == [[True, False, True], [False, True, False]]
 
 
 def test_a_part_the_task_does_not_use_is_never_chosen(model):

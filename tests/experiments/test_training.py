@@ -67,6 +67,12 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic.json"))
     if algo == "relmogen-d":
         assert 0.0 < sampled["epsilon"] <= 1.0
+        skipping = evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
+        assert skipping["policy"] == "deterministic-skip-no-ops"
+        assert list((run_dir / "eval").glob("*_1ep_skip_no_ops.json"))
+    else:
+        with pytest.raises(ValueError, match="needs relmogen-d"):
+            evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
     assert list((run_dir / "eval").glob("*.json"))
     if algo == "relmogen-d":
         figures = q_map_figures_for_checkpoint(run_dir, tmp_path / "qmap", states=1)
