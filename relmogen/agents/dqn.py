@@ -68,7 +68,7 @@ from stable_baselines3.dqn.policies import DQNPolicy
 from torch.nn import functional as F
 
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
-from relmogen.envs.relmogen_env import view_unchanged
+from relmogen.envs.relmogen_env import VIEW_KEYS, view_unchanged
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
 ALL_PARTS = ("base", "arm")
@@ -187,7 +187,7 @@ class NoOpMemory:
         return self.excluded
 
     def chose(self, obs: dict, action: int) -> None:
-        self.previous = ({key: np.array(value) for key, value in obs.items()}, int(action))
+        self.previous = ({key: np.array(obs[key]) for key in VIEW_KEYS if key in obs}, int(action))
 
 
 def env_policy(model: RelmogenDQN, env, deterministic: bool = True, skip_no_ops: bool = False):
