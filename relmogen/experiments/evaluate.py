@@ -101,9 +101,9 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
                             stochastic, skip_no_ops)
     if save:
-        policy = result["policy"].replace("deterministic", "").replace("-", "_").lstrip("_")
         name = f"eval_{result.get('scene')}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_" \
-               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep{'_' + policy if policy else ''}.json"
+               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep" \
+               f"{'_stochastic' if stochastic else ''}{'_skip_no_ops' if skip_no_ops else ''}.json"
         (run_dir / "eval").mkdir(exist_ok=True)
         (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
     return result
