@@ -10,6 +10,10 @@ the cell masks it acted under and marks the rows as demonstrations: ``algo.demo_
 for the whole run, ``algo.demo_margin_weight`` adds DQfD's margin term on them. They are not
 counted as environment steps of the policy (``num_timesteps``, the epsilon schedule,
 ``learning_starts``) nor as training episodes.
+
+``OracleLabels`` (``algo.oracle_labels``) wraps each training environment, in its own worker
+process, with the task's oracle; ``RelmogenDQN`` asks it for the oracle's discrete action in the
+state the policy is about to act in and stores that as the transition's label.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from rich.progress import Progress
@@ -76,6 +81,31 @@ def add_demonstrations(model, make_env: Callable, episodes: int, seed: int, quie
         venv.close()
     return {"episodes": len(returns), "transitions": transitions, "success_rate": float(np.mean(successes)),
             "mean_return": float(np.mean(returns)), "wall_time_s": round(time.time() - started, 1)}
+
+
+class OracleLabels(gym.Wrapper):
+    """A ``subgoal-d`` environment that also answers ``oracle_label()``: the discrete action its task
+    oracle would take in the current state. The oracle follows every episode from its reset, so
+    its progress bookkeeping (``attempt``) sees the policy's subgoals as its own."""
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        if env.unwrapped.control.name != "subgoal-d":
+            raise ValueError(f"oracle labels are discrete subgoal actions; the control is {env.unwrapped.control.name!r}")
+        self.oracle = make_policy("oracle", env.unwrapped)
+        self.last_obs = None
+
+    def reset(self, **kwargs):
+        self.last_obs, info = self.env.reset(**kwargs)
+        self.oracle.reset()
+        return self.last_obs, info
+
+    def step(self, action):
+        self.last_obs, *rest = self.env.step(action)
+        return self.last_obs, *rest
+
+    def oracle_label(self) -> int:
+        return int(_policy_action(self.env.unwrapped, self.oracle.act(self.last_obs)))
 
 
 def _single(obs: dict, index: int) -> dict:

@@ -41,6 +41,14 @@ by ``DQFD_MARGIN``: ``max_a [Q(s, a) + 0.8 [a != a_E]] - Q(s, a_E)``. The ``cpu`
 16 x 16 maps hold 3,072 arm actions, and a demonstrated press is one of them: the TD loss alone
 left the few demonstrated presses below their untried neighbours (``results/sgpd-demos``).
 
+Oracle labels (``oracle_labels``; ours, off by default, DAgger's idea with DQfD's loss): before
+each training step every environment is asked for its task oracle's choice in its current state
+(``env_method("oracle_label")``, answered by ``relmogen.agents.demonstrations.OracleLabels``).
+The policy still acts; the label goes into the replay with the transition and the margin term
+applies to it as to a demonstration's action. Demonstrations show the oracle's own states only;
+the labels cover the states the policy reaches by its own mistakes. ``rollout/oracle_agreement``
+logs how often the policy chose the label (last 1,000 transitions, exploration included).
+
 N-step returns (``n_step_returns`` = n > 1; off by default, DQfD and Rainbow use them): the
 target of a stored transition sums the discounted rewards of up to n consecutive stored steps of
 its environment and bootstraps with gamma^k from the k-th next state (k <= n, fewer at an episode
@@ -54,6 +62,7 @@ already stores, as SB3's ``NStepReplayBuffer`` does (which does not take Dict ob
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -73,6 +82,8 @@ from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
 ALL_PARTS = ("base", "arm")
 DQFD_MARGIN = 0.8  # the expert margin of DQfD (Hester et al., 2018)
+LABEL_AGREEMENT_WINDOW = 1000  # policy transitions behind ``rollout/oracle_agreement``
+ORACLE_LABEL_METHOD = "oracle_label"  # what ``oracle_labels`` calls on every training environment
 MASK_KEYS = ("base_mask", "arm_mask")  # info keys of the (Q, Q) cell masks, in channel order
 
 
@@ -262,7 +273,7 @@ class QMapReplaySamples(NamedTuple):
     discounts: th.Tensor | None = None
     next_masks: th.Tensor | None = None
     masks: th.Tensor | None = None
-    demo: th.Tensor | None = None
+    labels: th.Tensor | None = None  # (B,) long: the expert's action for the margin term, -1 for none
 
 
 class QMapReplayBuffer(DictReplayBuffer):
@@ -274,6 +285,10 @@ class QMapReplayBuffer(DictReplayBuffer):
     ``keep_demonstrations`` the ring skips them, so they stay for the whole run (DQfD keeps its
     demonstrations the same way; ours, off by default).
 
+    ``labels`` (rows, n_envs) holds each transition's expert action for the margin term, -1 for
+    none: a demonstration's own action, or the oracle's label of a policy state
+    (``acting_labels``, set like ``acting_masks``; ``algo.oracle_labels``).
+
     With ``n_step_returns`` > 1 samples carry n-step rewards and their ``discounts`` (module doc);
     ``RelmogenDQN`` sets it and ``gamma`` before sampling."""
 
@@ -283,8 +298,9 @@ class QMapReplayBuffer(DictReplayBuffer):
         self.keep_demonstrations = bool(keep_demonstrations)
         self.n_step_returns, self.gamma = 1, 0.99
         self.adding_demonstrations = False
-        self.acting_masks = None
+        self.acting_masks = self.acting_labels = None
         self.demo = np.zeros(self.buffer_size, dtype=bool)
+        self.labels = np.full((self.buffer_size, self.n_envs), -1, dtype=np.int64)
         for store in (self.observations, self.next_observations):
             if "depth" in store:
                 store["depth"] = np.zeros(store["depth"].shape, dtype=np.float16)
@@ -299,12 +315,14 @@ class QMapReplayBuffer(DictReplayBuffer):
             base = state.pop("next_base_masks")
             state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
         state = {"keep_demonstrations": False, "adding_demonstrations": False, "acting_masks": None,
-                 "n_step_returns": 1, "gamma": 0.99, **state}
+                 "acting_labels": None, "n_step_returns": 1, "gamma": 0.99, **state}
         self.__dict__.update(state)
         if "masks" not in state:
             self.masks = masks_before(self.next_masks, self.dones, self.pos, self.full)
         if "demo" not in state:
             self.demo = np.zeros(self.buffer_size, dtype=bool)
+        if "labels" not in state:  # demonstrations were labelled by their own action
+            self.labels = np.where(self.demo[:, None], self.actions[..., 0], -1).astype(np.int64)
 
     def add(self, obs, next_obs, action, reward, done, infos) -> None:
         if self.keep_demonstrations:
@@ -313,7 +331,14 @@ class QMapReplayBuffer(DictReplayBuffer):
         self.acting_masks = None
         self.next_masks[self.pos] = masks_from_infos(infos, self.next_masks.shape[-1])
         self.demo[self.pos] = self.adding_demonstrations
+        self.labels[self.pos] = self._labels_of(action)
         super().add(obs, next_obs, action, reward, done, infos)
+
+    def _labels_of(self, action) -> np.ndarray:
+        """The expert actions of the row being added: its own for demonstrations, else ``acting_labels``."""
+        labels = np.asarray(action).reshape(self.n_envs) if self.adding_demonstrations else self.acting_labels
+        self.acting_labels = None
+        return -1 if labels is None else labels
 
     def _skip_demonstration_rows(self) -> None:
         """Move ``pos`` past kept demonstration rows (wrapping round as SB3's ``add`` does)."""
@@ -328,7 +353,7 @@ class QMapReplayBuffer(DictReplayBuffer):
     def nbytes(self) -> int:
         """Bytes held by the stored arrays."""
         arrays = [*self.observations.values(), *self.next_observations.values(), self.actions, self.rewards,
-                  self.dones, self.timeouts, self.next_masks, self.masks, self.demo]
+                  self.dones, self.timeouts, self.next_masks, self.masks, self.demo, self.labels]
         return int(sum(array.nbytes for array in arrays))
 
     def _batch(self, store: dict[str, np.ndarray], rows, envs, env) -> TensorDict:
@@ -355,7 +380,7 @@ class QMapReplayBuffer(DictReplayBuffer):
             discounts=discounts,
             next_masks=self.to_torch(self.next_masks[last, envs]),
             masks=self.to_torch(self.masks[batch_inds, envs]),
-            demo=self.to_torch(self.demo[batch_inds]),
+            labels=self.to_torch(self.labels[batch_inds, envs]),
         )
 
     def n_step_rows(self, batch_inds: np.ndarray, envs: np.ndarray) -> np.ndarray:
@@ -390,13 +415,15 @@ class RelmogenDQN(DQN):
                  max_grad_norm: float = 10.0, exploration_initial_eps: float = 0.8,
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
                  conservative_weight: float = 0.0, demo_margin_weight: float = 0.0, n_step_returns: int = 1,
-                 replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
+                 oracle_labels: bool = False, replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
         self.mask_arm = bool(mask_arm)
         self.exploration_steps = exploration_steps
         self.conservative_weight = float(conservative_weight)
         self.demo_margin_weight = float(demo_margin_weight)
         self.n_step_returns = int(n_step_returns)  # not SB3's ``n_steps``: that one wants SB3's own buffer
+        self.oracle_labels = bool(oracle_labels)
+        self._acting_labels, self._label_agreement = None, deque(maxlen=LABEL_AGREEMENT_WINDOW)
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -405,10 +432,11 @@ class RelmogenDQN(DQN):
 
     def _setup_model(self) -> None:
         self.subgoal_parts = tuple(self.subgoal_parts)  # ``load`` restores it from JSON as a list
+        self._acting_labels, self._label_agreement = None, deque(maxlen=LABEL_AGREEMENT_WINDOW)
         super()._setup_model()
 
     def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "_acting_masks"]
+        return [*super()._excluded_save_params(), "_acting_masks", "_acting_labels", "_label_agreement"]
 
     @staticmethod
     def _wrap_env(env, verbose: int = 0, monitor_wrapper: bool = True) -> VecEnv:
@@ -447,6 +475,8 @@ class RelmogenDQN(DQN):
 
     def _sample_action(self, learning_starts: int, action_noise=None, n_envs: int = 1):
         masks = self._acting_masks = self.tracked_masks(n_envs)
+        if self.oracle_labels:  # before acting: the label is the oracle's choice in this state
+            self._acting_labels = np.asarray(self.env.env_method(ORACLE_LABEL_METHOD), dtype=np.int64)
         if self.num_timesteps < learning_starts:
             action = sample_allowed(self.allowed(masks, n_envs).cpu().numpy())
         else:
@@ -456,6 +486,10 @@ class RelmogenDQN(DQN):
     def _store_transition(self, replay_buffer, buffer_action, new_obs, reward, dones, infos) -> None:
         if isinstance(replay_buffer, QMapReplayBuffer):
             replay_buffer.acting_masks = self._acting_masks
+            replay_buffer.acting_labels = self._acting_labels
+        if self._acting_labels is not None:
+            self._label_agreement.extend(np.asarray(buffer_action).reshape(-1) == self._acting_labels)
+            self._acting_labels = None
         super()._store_transition(replay_buffer, buffer_action, new_obs, reward, dones, infos)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False,
@@ -502,6 +536,8 @@ class RelmogenDQN(DQN):
             self.logger.record("train/conservative_gap", float(losses[:, 1].mean()))
         if self.demo_margin_weight:
             self.logger.record("train/demo_margin_loss", float(losses[:, 2].mean()))
+        if self._label_agreement:
+            self.logger.record("rollout/oracle_agreement", float(np.mean(self._label_agreement)))
 
     def conservative_gap(self, q_values: th.Tensor, taken: th.Tensor, masks: th.Tensor | None) -> th.Tensor:
         """Mean over the batch of logsumexp over allowed actions of Q(s, .) minus Q(s, a_taken)."""
@@ -509,14 +545,16 @@ class RelmogenDQN(DQN):
         return (q_values.masked_fill(~allowed, -th.inf).logsumexp(dim=1, keepdim=True) - taken).mean()
 
     def demonstration_margin(self, q_values: th.Tensor, data) -> th.Tensor:
-        """DQfD's large-margin loss, mean over the batch's demonstration rows (0 without any):
-        max over allowed a of [Q(s, a) + 0.8 if a is not the demonstrated a_E] minus Q(s, a_E)."""
-        demo = data.demo.bool() if data.demo is not None else None
-        if demo is None or not demo.any():
+        """DQfD's large-margin loss, mean over the batch's labelled rows (0 without any): max over
+        allowed a of [Q(s, a) + 0.8 if a is not the expert's a_E] minus Q(s, a_E). a_E is
+        ``data.labels``: a demonstration's own action or the oracle's label of a policy state."""
+        labelled = data.labels >= 0 if data.labels is not None else None
+        if labelled is None or not labelled.any():
             return th.zeros((), device=q_values.device)
-        q_values, taken = q_values[demo], data.actions.long()[demo]
+        q_values, taken = q_values[labelled], data.labels.long()[labelled].reshape(-1, 1)
         expert = F.one_hot(taken.reshape(-1), q_values.shape[1]).bool()
-        allowed = self.allowed(data.masks[demo] if data.masks is not None else None, q_values.shape[0]) | expert
+        masks = data.masks[labelled] if data.masks is not None else None
+        allowed = self.allowed(masks, q_values.shape[0]) | expert
         best = (q_values + DQFD_MARGIN * ~expert).masked_fill(~allowed, -th.inf).max(dim=1).values
         return (best - q_values.gather(1, taken).reshape(-1)).mean()
 

@@ -64,6 +64,7 @@ class AlgoConfig(_Strict):
     demo_keep: bool = False  # relmogen-d: the replay never overwrites the demonstrations (ours)
     demo_margin_weight: float = Field(0.0, ge=0)  # relmogen-d: DQfD's large-margin term on them (ours; 0 = off)
     n_step_returns: int | None = Field(None, ge=1, le=25)  # relmogen-d: n-step TD targets (DQfD, Rainbow); 1 = off
+    oracle_labels: bool = False  # relmogen-d: the margin term on the oracle's labels of policy states (ours)
 
 
 class RunSettings(_Strict):
@@ -101,8 +102,24 @@ class TrainConfig(_Strict):
         if uses and self.algo != "relmogen-d":
             raise ValueError(f"{' and '.join(uses)}: relmogen-d only (its replay buffer marks demonstrations), "
                              f"not {self.algo}")
+        uses = [key for key in uses if not (key == "demo_margin_weight" and params.oracle_labels)]
         if uses and not params.demo_episodes:
             raise ValueError(f"{' and '.join(uses)}: these act on demonstrations; set algo.demo_episodes too")
+        return self
+
+    @model_validator(mode="after")
+    def _oracle_labels_need_the_margin(self) -> TrainConfig:
+        if not self.algo_params.oracle_labels:
+            return self
+        if self.algo != "relmogen-d":
+            raise ValueError(f"oracle_labels: relmogen-d only (labels are discrete subgoals), not {self.algo}")
+        if not self.algo_params.demo_margin_weight:
+            raise ValueError("oracle_labels act through the margin term: set algo.demo_margin_weight > 0 too")
+        from relmogen.agents.oracles import ORACLES
+
+        if self.task not in ORACLES:
+            raise ValueError(f"oracle_labels: no oracle for task {self.task!r}; oracles exist for: "
+                             f"{', '.join(sorted(ORACLES))}")
         return self
 
     @model_validator(mode="after")
@@ -172,10 +189,11 @@ RESUMABLE_ALGO_KEYS = frozenset({
     "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
     "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
     "exploration_steps", "conservative_weight", "demo_episodes", "demo_margin_weight", "n_step_returns",
+    "oracle_labels",
 })
 DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
                            "exploration_final_eps", "exploration_steps", "conservative_weight",
-                           "demo_margin_weight", "n_step_returns"})
+                           "demo_margin_weight", "n_step_returns", "oracle_labels"})
 
 
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:

@@ -26,7 +26,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from torch.utils.tensorboard import SummaryWriter
 
-from relmogen.agents.demonstrations import add_demonstrations
+from relmogen.agents.demonstrations import OracleLabels, add_demonstrations
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.networks import SGPREncoder
 from relmogen.agents.replay import resize_replay_buffer
@@ -66,7 +66,7 @@ def make_training_env(config: TrainConfig):
     vec_cls = SubprocVecEnv if config.env.n_envs > 1 else DummyVecEnv
     kwargs = env_kwargs(config, arm_collision=config.env.arm_collision_train)
     return make_vec_env(RelmogenEnv, n_envs=config.env.n_envs, seed=config.seed, env_kwargs=kwargs,
-                        vec_env_cls=vec_cls)
+                        vec_env_cls=vec_cls, wrapper_class=OracleLabels if config.algo_params.oracle_labels else None)
 
 
 def build_model(config: TrainConfig, env):
@@ -96,7 +96,7 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
                       ("skip", params.qmap_skip)) if value is not None}
     optional = {key: getattr(params, key) for key in
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-                 "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns")
+                 "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels")
                 if getattr(params, key) is not None}
     return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                        demo_margin_weight=params.demo_margin_weight,
@@ -263,6 +263,8 @@ class TrainingMonitor(BaseCallback):
         for key, value in self.model.logger.name_to_value.items():
             if key.startswith("train/"):
                 self.writer.add_scalar(f"losses/{key.split('/', 1)[1]}", value, episode)
+            elif key == "rollout/oracle_agreement":  # algo.oracle_labels
+                self.writer.add_scalar("charts/oracle_agreement", value, episode)
 
     def checkpoint(self) -> None:
         self.state["wall_time_s"] = self.wall_time

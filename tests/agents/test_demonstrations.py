@@ -5,7 +5,7 @@ import pytest
 import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from relmogen.agents.demonstrations import add_demonstrations
+from relmogen.agents.demonstrations import OracleLabels, add_demonstrations
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.sac import SharedEncoderSAC
 from relmogen.envs.relmogen_env import RelmogenEnv
@@ -42,6 +42,32 @@ def test_discrete_demonstrations_fill_the_replay_without_counting_as_policy_step
     np.testing.assert_array_equal(buffer.masks[continuing, 0], buffer.next_masks[continuing - 1, 0])
     assert buffer.demo[: buffer.pos].all() and not buffer.adding_demonstrations  # rows marked, then off
     model.env.close()
+
+
+def test_oracle_labels_go_with_the_policys_own_transitions():
+    make = make_env("ButtonDoorNav", "subgoal-d")
+    model = RelmogenDQN(env=DummyVecEnv([lambda: OracleLabels(make())] * 2), buffer_size=200, batch_size=4,
+                        learning_starts=1000, policy_kwargs=SMALL_NET, oracle_labels=True, seed=0)
+    probe = OracleLabels(make())
+    probe.reset(seed=3)
+    first = probe.oracle_label()
+    assert 0 <= first < model.action_space.n and probe.oracle.attempt == 0
+    model.learn(total_timesteps=16)
+    buffer = model.replay_buffer
+    labels, actions = buffer.labels[: buffer.pos], buffer.actions[: buffer.pos, :, 0]
+    assert ((labels >= 0) & (labels < model.action_space.n)).all() and not buffer.demo.any()
+    assert (labels != actions).any()  # random policy actions, oracle labels
+    assert len(model._label_agreement) == buffer.pos * 2
+    assert np.mean(model._label_agreement) == pytest.approx(np.mean(labels == actions))
+    add_demonstrations(model, make, episodes=1, seed=5, quiet=True)  # demonstrations: labelled by themselves
+    demo = buffer.demo[: buffer.pos]
+    np.testing.assert_array_equal(buffer.labels[: buffer.pos][demo], buffer.actions[: buffer.pos, :, 0][demo])
+    model.env.close()
+
+
+def test_oracle_labels_need_discrete_subgoals():
+    with pytest.raises(ValueError, match="discrete subgoal actions"):
+        OracleLabels(make_env("ButtonDoorNav", "subgoal-r")())
 
 
 def test_continuous_demonstrations_store_the_oracle_actions():

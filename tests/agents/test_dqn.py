@@ -371,17 +371,34 @@ def test_demonstrations_filling_the_whole_ring_are_refused():
 def test_a_buffer_saved_before_demonstration_rows_loads_with_none():
     buffer = tiny_buffer(4, keep=False)
     state = buffer.__getstate__() if hasattr(buffer, "__getstate__") else dict(vars(buffer))
-    for key in ("demo", "keep_demonstrations", "adding_demonstrations", "acting_masks"):
+    for key in ("demo", "keep_demonstrations", "adding_demonstrations", "acting_masks", "labels", "acting_labels"):
         state.pop(key)
     old = QMapReplayBuffer.__new__(QMapReplayBuffer)
     old.__setstate__(dict(state))
     assert old.demo.shape == (4,) and not old.demo.any() and not old.keep_demonstrations
+    assert (old.labels == -1).all()
     add_rows(old, [1], demonstrations=False)
+
+
+def test_rows_carry_expert_labels_into_their_samples():
+    buffer = tiny_buffer(8, keep=False)
+    add_rows(buffer, [20, 21], demonstrations=True)  # a demonstration is labelled by its own action
+    buffer.acting_labels = np.array([3])
+    add_step(buffer, 9)  # a policy step with the oracle's label
+    add_step(buffer, 10)  # and one without
+    assert buffer.labels[:4, 0].tolist() == [20, 21, 3, -1] and buffer.acting_labels is None
+    assert buffer._get_samples(np.array([0, 2, 3])).labels.tolist() == [20, 3, -1]
+    state = dict(vars(buffer))
+    del state["labels"]  # a buffer saved before labels: its demonstrations get their own actions
+    old = QMapReplayBuffer.__new__(QMapReplayBuffer)
+    old.__setstate__(state)
+    assert old.labels[:4, 0].tolist() == [20, 21, -1, -1]
 
 
 def demonstration_batch(model, n: int = 6) -> QMapReplaySamples:
     data = conservative_batch(model, n)
-    return data._replace(demo=th.tensor([True, False] * (n // 2)))
+    demo = th.tensor([True, False] * (n // 2))
+    return data._replace(labels=th.where(demo, data.actions.reshape(-1), -1))
 
 
 def test_demonstration_margin_is_dqfds_large_margin_loss_on_demonstration_rows(model):
@@ -391,14 +408,16 @@ def test_demonstration_margin_is_dqfds_large_margin_loss_on_demonstration_rows(m
         margin = model.demonstration_margin(q_values, data)
     allowed = allowed_actions(data.masks, model.subgoal_parts)
     expected = []
-    for b in np.flatnonzero(data.demo.numpy()):
-        action = int(data.actions[b])
+    for b in np.flatnonzero(data.labels.numpy() >= 0):
+        action = int(data.labels[b])
         others = allowed[b].clone()
         others[action] = False
         best_other = float(q_values[b][others].max()) + DQFD_MARGIN
         expected.append(max(best_other, float(q_values[b, action])) - float(q_values[b, action]))
     assert float(margin) == pytest.approx(np.mean(expected), rel=1e-5)
-    assert float(model.demonstration_margin(q_values, data._replace(demo=th.zeros(6, dtype=th.bool)))) == 0.0
+    assert float(model.demonstration_margin(q_values, data._replace(labels=th.full((6,), -1)))) == 0.0
+    relabelled = data._replace(labels=th.where(data.labels >= 0, (data.labels + 1) % model.action_space.n, -1))
+    assert float(model.demonstration_margin(q_values, relabelled)) != pytest.approx(float(margin))  # labels, not actions
 
 
 def test_margin_updates_make_each_demonstrated_action_the_greedy_one():
@@ -406,8 +425,8 @@ def test_margin_updates_make_each_demonstrated_action_the_greedy_one():
     margins = losses[:, 2]
     greedy = masked_argmax(q_values, allowed_actions(data.masks))
     assert margins[0] > DQFD_MARGIN and margins[-1] < 0.1 * margins[0]
-    demo = data.demo.numpy()
-    np.testing.assert_array_equal(greedy.numpy()[demo], data.actions.ravel().numpy()[demo])
+    demo = data.labels.numpy() >= 0
+    np.testing.assert_array_equal(greedy.numpy()[demo], data.labels.numpy()[demo])
 
 
 # ----------------------------------------------------------------- n-step returns

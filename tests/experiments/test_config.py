@@ -66,6 +66,22 @@ def test_demonstration_settings_are_refused_where_they_would_do_nothing(algo, ov
         resolve_config("ButtonDoorNav", algo, preset="tiny", overrides=overrides)
 
 
+@pytest.mark.parametrize(("task", "algo", "overrides", "message"), [
+    ("ButtonDoorNav", "relmogen-r", ["algo.oracle_labels=true"], "oracle_labels: relmogen-d only"),
+    ("ButtonDoorNav", "relmogen-d", ["algo.oracle_labels=true"], "set algo.demo_margin_weight > 0"),
+    ("NoSuchTask", "relmogen-d", ["algo.oracle_labels=true", "algo.demo_margin_weight=1"], "no oracle for task"),
+])
+def test_oracle_labels_are_refused_where_they_would_do_nothing(task, algo, overrides, message):
+    with pytest.raises(ValueError, match=message):
+        resolve_config(task, algo, preset="tiny", overrides=overrides)
+
+
+def test_oracle_labels_alone_may_carry_the_margin_term():
+    config = resolve_config("ButtonDoorNav", "relmogen-d", preset="tiny",
+                            overrides=["algo.oracle_labels=true", "algo.demo_margin_weight=1"])
+    assert config.algo_params.oracle_labels and config.algo_params.demo_episodes == 0
+
+
 @pytest.mark.parametrize("assignment", ["env.image_size=128", "algo.qmap_widths=[8, 8, 8, 8]", "task=PushDoorNav",
                                         "algo.mask_arm=false", "algo.demo_keep=true"])
 def test_a_resumed_run_refuses_changes_its_checkpoint_cannot_follow(assignment):
