@@ -90,8 +90,9 @@ class OracleLabels(gym.Wrapper):
 
     def __init__(self, env: gym.Env):
         super().__init__(env)
-        if env.unwrapped.control.name != "subgoal-d":
-            raise ValueError(f"oracle labels are discrete subgoal actions; the control is {env.unwrapped.control.name!r}")
+        control = env.unwrapped.control.name
+        if control != "subgoal-d":
+            raise ValueError(f"oracle labels are discrete subgoal actions; the control is {control!r}")
         self.oracle = make_policy("oracle", env.unwrapped)
         self.last_obs = None
 
