@@ -417,7 +417,8 @@ def test_demonstration_margin_is_dqfds_large_margin_loss_on_demonstration_rows(m
     assert float(margin) == pytest.approx(np.mean(expected), rel=1e-5)
     assert float(model.demonstration_margin(q_values, data._replace(labels=th.full((6,), -1)))) == 0.0
     relabelled = data._replace(labels=th.where(data.labels >= 0, (data.labels + 1) % model.action_space.n, -1))
-    assert float(model.demonstration_margin(q_values, relabelled)) != pytest.approx(float(margin))  # labels, not actions
+    # the margin follows the labels, not the stored actions
+    assert float(model.demonstration_margin(q_values, relabelled)) != pytest.approx(float(margin))
 
 
 def test_margin_updates_make_each_demonstrated_action_the_greedy_one():
