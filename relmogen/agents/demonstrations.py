@@ -106,7 +106,37 @@ class OracleLabels(gym.Wrapper):
         return self.last_obs, *rest
 
     def oracle_label(self) -> int:
-        return int(_policy_action(self.env.unwrapped, self.oracle.act(self.last_obs)))
+        return oracle_choice(self.oracle, self.last_obs)
+
+
+class OracleAgreement:
+    """Wraps a discrete policy ``obs -> action`` (with ``reset``) for one environment and records,
+    per subgoal, whether it chose what the task's oracle would have chosen in the same state
+    (``matches``). ``relmogen eval`` reports the mean as ``oracle_agreement``."""
+
+    def __init__(self, act, env):
+        self.act, self.oracle, self.matches = act, make_policy("oracle", env.unwrapped), []
+
+    def reset(self) -> None:
+        self.act.reset()
+        self.oracle.reset()
+
+    def __call__(self, obs: dict) -> int:
+        label = oracle_choice(self.oracle, obs)
+        action = self.act(obs)
+        self.matches.append(int(action) == label)
+        return action
+
+
+def oracle_choice(oracle, obs: dict) -> int:
+    """The oracle's discrete action in the current state. The environment's random stream is left
+    as it was (a stuck oracle draws from it), so asking does not change the episode."""
+    rng = oracle.env.np_random.bit_generator
+    state = rng.state
+    try:
+        return int(_policy_action(oracle.env, oracle.act(obs)))
+    finally:
+        rng.state = state
 
 
 def _single(obs: dict, index: int) -> dict:

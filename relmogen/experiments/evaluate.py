@@ -10,6 +10,10 @@ reporting. Action sampling is seeded from ``seed``.
 a subgoal after which the view did not change is not chosen again until it does. It is reported
 as its own policy (``deterministic-skip-no-ops``), never as the paper's greedy figure.
 
+SGP-D evaluations of a task with an oracle also report ``oracle_agreement``: the share of the
+policy's subgoals that were the oracle's choice in the same state (``OracleAgreement``), a
+measure of imitation on the policy's own states, which demonstrations never visit.
+
 The planners, arm collision checking and scene can differ from training: that is how the
 paper's planner-swap (Table II) and scene-transfer results are measured.
 """
@@ -24,7 +28,9 @@ from typing import Iterator
 import numpy as np
 import torch as th
 
+from relmogen.agents.demonstrations import OracleAgreement
 from relmogen.agents.dqn import env_policy
+from relmogen.agents.oracles import ORACLES
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import TrainConfig, read_config
 from relmogen.experiments.rollout import aggregate, run_episodes
@@ -56,8 +62,11 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
+    agreement = None
     if config.algo == "relmogen-d":  # over the free base cells only
         act = env_policy(model, env, deterministic=not stochastic, skip_no_ops=skip_no_ops)
+        if config.task in ORACLES:
+            act = agreement = OracleAgreement(act, env)
         on_reset = act.reset
     else:
         act, on_reset = (lambda obs: model.predict(obs, deterministic=not stochastic)[0]), None
@@ -75,7 +84,10 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if config.control != "joint":
         settings.update(base_planner=base_planner or config.env.base_planner,
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)
-    return {**settings, **aggregate(records)}
+    result = {**settings, **aggregate(records)}
+    if agreement is not None:
+        result["oracle_agreement"] = float(np.mean(agreement.matches))
+    return result
 
 
 def load_policy(path: Path, device: str = "auto"):

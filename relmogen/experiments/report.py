@@ -122,7 +122,7 @@ def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
 
 SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "policy", "episodes")
 SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction",
-                   "repeated_subgoal_rate", "unchanged_view_rate")
+                   "repeated_subgoal_rate", "unchanged_view_rate", "oracle_agreement")
 
 
 def settings_table(groups: dict[tuple[str, str], list[dict]]) -> str:

@@ -5,7 +5,8 @@ import pytest
 import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from relmogen.agents.demonstrations import OracleLabels, add_demonstrations
+from relmogen.agents.demonstrations import OracleAgreement, OracleLabels, add_demonstrations, oracle_choice
+from relmogen.agents.oracles import make_policy
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.sac import SharedEncoderSAC
 from relmogen.envs.relmogen_env import RelmogenEnv
@@ -63,6 +64,30 @@ def test_oracle_labels_go_with_the_policys_own_transitions():
     demo = buffer.demo[: buffer.pos]
     np.testing.assert_array_equal(buffer.labels[: buffer.pos][demo], buffer.actions[: buffer.pos, :, 0][demo])
     model.env.close()
+
+
+def test_oracle_agreement_counts_the_oracles_choices_without_touching_the_episode():
+    env = make_env("ButtonDoorNav", "subgoal-d")()
+    twin = make_policy("oracle", env)  # a policy that is the oracle itself agrees every time
+
+    def act(obs):
+        return oracle_choice(twin, obs)
+
+    act.reset = twin.reset
+    agreement = OracleAgreement(act, env)
+    obs, _ = env.reset(seed=2)
+    agreement.reset()
+    for _ in range(3):
+        stream = env.np_random.bit_generator.state
+        action = agreement(obs)
+        assert env.np_random.bit_generator.state == stream  # asking the oracle draws nothing
+        obs, *_ = env.step(action)
+    assert agreement.matches == [True] * 3
+    other = OracleAgreement(lambda obs: (oracle_choice(twin, obs) + 1) % env.action_space.n, env)
+    other.oracle.reset()
+    other(obs)
+    assert other.matches == [False]
+    env.close()
 
 
 def test_oracle_labels_need_discrete_subgoals():

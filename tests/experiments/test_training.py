@@ -63,6 +63,8 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
     assert result["policy"] == "deterministic"
+    assert ("oracle_agreement" in result) == (algo == "relmogen-d")  # SGP-D against the task's oracle
+    assert 0.0 <= result.get("oracle_agreement", 0.0) <= 1.0
     sampled = evaluate_path(run_dir, episodes=1, quiet=True, stochastic=True)  # sampled / epsilon-greedy
     assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic.json"))
     if algo == "relmogen-d":
