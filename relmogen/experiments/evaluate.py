@@ -12,7 +12,7 @@ as its own policy (``deterministic-skip-no-ops``), never as the paper's greedy f
 
 SGP-D evaluations of a task with an oracle also report ``oracle_agreement``: the share of the
 policy's subgoals that were the oracle's choice in the same state (``OracleAgreement``), a
-measure of imitation on the policy's own states, which demonstrations never visit.
+measure of imitation on the states the policy itself reaches, which demonstrations do not cover.
 
 The planners, arm collision checking and scene can differ from training: that is how the
 paper's planner-swap (Table II) and scene-transfer results are measured.
