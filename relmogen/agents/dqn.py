@@ -423,7 +423,6 @@ class RelmogenDQN(DQN):
         self.demo_margin_weight = float(demo_margin_weight)
         self.n_step_returns = int(n_step_returns)  # not SB3's ``n_steps``: that one wants SB3's own buffer
         self.oracle_labels = bool(oracle_labels)
-        self._acting_labels, self._label_agreement = None, deque(maxlen=LABEL_AGREEMENT_WINDOW)
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -432,7 +431,7 @@ class RelmogenDQN(DQN):
 
     def _setup_model(self) -> None:
         self.subgoal_parts = tuple(self.subgoal_parts)  # ``load`` restores it from JSON as a list
-        self._acting_labels, self._label_agreement = None, deque(maxlen=LABEL_AGREEMENT_WINDOW)
+        self._acting_labels, self._label_agreement = None, deque(maxlen=LABEL_AGREEMENT_WINDOW)  # runtime only
         super()._setup_model()
 
     def _excluded_save_params(self) -> list[str]:
