@@ -6,13 +6,14 @@
                     [--arm-planner Y] [--arm-collision on|off] [--gif PATH] [--json]
     relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
     relmogen bench planner [--problems N] [--seed S] [--json]
-    relmogen bench train [--task T] [--updates N] [--json]
+    relmogen bench train [--task T] [--updates N] [--subgoals N] [--json]
     relmogen train --task T --algo A [--seed S] [--preset P] [--episodes N] [--max-hours H]
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--episodes N] [--base-planner X] [--arm-planner Y]
                   [--arm-collision on|off] [--scene A|B] [--stochastic] [--skip-no-ops] [--json]
     relmogen export RUN_DIR_OR_CHECKPOINT --out DIR
     relmogen report RUN_DIRS... --out DIR
+    relmogen report --table1 DIR
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
 """
 
@@ -124,7 +125,15 @@ def cmd_viz_qmap(args: argparse.Namespace) -> int:
 
 def cmd_report(args: argparse.Namespace) -> int:
     from relmogen.experiments.report import write_report
+    from relmogen.experiments.table1 import write_table1
 
+    if args.table1 is not None:
+        if args.runs or args.out is not None:
+            raise ValueError("report --table1 DIR takes neither RUN_DIRs nor --out")
+        print(write_table1(Path(args.table1)).read_text())
+        return 0
+    if not args.runs or args.out is None:
+        raise ValueError("report needs RUN_DIR... --out DIR, or --table1 DIR")
     result = write_report([Path(p) for p in args.runs], Path(args.out))
     print(result.pop("markdown"))
     print(json.dumps(result))
@@ -142,7 +151,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     elif args.what == "train":
         from relmogen.bench.train_bench import bench_train
 
-        result = bench_train(task=args.task or "PushDoorNav", updates=args.updates)
+        result = bench_train(task=args.task or "PushDoorNav", updates=args.updates, subgoals=args.subgoals)
         print(json.dumps(result, sort_keys=True) if args.json else json.dumps(result, indent=1))
         return 0
     else:  # argparse restricts the choices
@@ -251,8 +260,10 @@ def build_parser() -> argparse.ArgumentParser:
     qmap.set_defaults(func=cmd_viz_qmap)
 
     report = sub.add_parser("report", help="table (mean/std/max over seeds) and curves of runs")
-    report.add_argument("runs", nargs="+", metavar="RUN_DIR")
-    report.add_argument("--out", required=True)
+    report.add_argument("runs", nargs="*", metavar="RUN_DIR")
+    report.add_argument("--out", help="where table.md, table.json and curves.png go")
+    report.add_argument("--table1", metavar="DIR", help="write DIR/README.md, the paper's Table I beside ours, "
+                                                        "from DIR/*/table.json (one report per task and algorithm)")
     report.set_defaults(func=cmd_report)
 
     bench = sub.add_parser("bench", help="speed benchmarks")
@@ -260,6 +271,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--task", default=None,
                        help="env: task of the joint-velocity steps (PointNav); train: task (PushDoorNav)")
     bench.add_argument("--updates", type=_positive_int, default=10, help="train: gradient steps timed per run")
+    bench.add_argument("--subgoals", type=_positive_int, default=1000,
+                       help="train: subgoals of the real relmogen-r cpu training run, counted from its first update")
     bench.add_argument("--samples", type=_positive_int, default=200, help="env: joint-velocity steps")
     bench.add_argument("--image-size", type=_positive_int, default=128, help="env: camera resolution")
     bench.add_argument("--subgoal-samples", type=_non_negative_int, default=20,

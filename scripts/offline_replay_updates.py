@@ -31,7 +31,7 @@ from rich.progress import Progress
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.replay import stored_rows
 from relmogen.experiments.config import read_config, save_config, with_overrides
-from relmogen.experiments.train import build_dqn, latest_checkpoint, write_checkpoint
+from relmogen.experiments.train import build_dqn, latest_checkpoint, latest_replay, write_checkpoint
 
 
 class SpacesOnly(gym.Env):
@@ -85,7 +85,7 @@ def main() -> None:
     if args.from_scratch:
         model = build_dqn(config.model_copy(update={"device": "cpu"}),
                           SpacesOnly(model.observation_space, model.action_space))
-    model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
+    model.load_replay_buffer(latest_replay(args.run))
     params = config.algo_params
     copy_every = max(params.target_update_interval // (config.env.n_envs * params.train_freq), 1)
     start, losses, gaps = time.time(), [], []

@@ -19,7 +19,7 @@ import numpy as np
 
 from relmogen.agents.replay import stored_rows
 from relmogen.envs.subgoal_controls import Q_DOWNSAMPLE, decode_indices
-from relmogen.experiments.train import latest_checkpoint
+from relmogen.experiments.train import latest_replay
 
 PRESS_REWARD = 5.0
 
@@ -57,10 +57,10 @@ def main() -> None:
     args = parser.parse_args()
     header = None
     for run in args.runs:
-        checkpoint = latest_checkpoint(run)
-        if checkpoint is None:
-            raise SystemExit(f"{run} has no checkpoint with a replay buffer")
-        with open(checkpoint / "replay_buffer.pkl", "rb") as file:
+        replay = latest_replay(run)
+        if replay is None:
+            raise SystemExit(f"{run} has no saved replay buffer")
+        with open(replay, "rb") as file:
             counts = push_counts(pickle.load(file))
         if header is None:
             header = list(counts)

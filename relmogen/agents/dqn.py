@@ -69,7 +69,6 @@ import numpy as np
 import torch as th
 from gymnasium import spaces
 from stable_baselines3 import DQN
-from stable_baselines3.common.buffers import DictReplayBuffer
 from stable_baselines3.common.policies import BasePolicy
 from stable_baselines3.common.type_aliases import TensorDict
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, is_vecenv_wrapped
@@ -77,6 +76,7 @@ from stable_baselines3.dqn.policies import DQNPolicy
 from torch.nn import functional as F
 
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
+from relmogen.agents.replay import CompactDictReplayBuffer, with_full_capacity
 from relmogen.envs.relmogen_env import VIEW_KEYS, view_unchanged
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
@@ -276,8 +276,8 @@ class QMapReplaySamples(NamedTuple):
     labels: th.Tensor | None = None  # (B,) long: the expert's action for the margin term, -1 for none
 
 
-class QMapReplayBuffer(DictReplayBuffer):
-    """``DictReplayBuffer`` with float16 ``depth`` and the state's and next state's cell masks per
+class QMapReplayBuffer(CompactDictReplayBuffer):
+    """``CompactDictReplayBuffer`` (float16 ``depth``) with the state's and next state's cell masks per
     transition. ``masks`` rows are the masks the action was chosen under (``acting_masks``, set
     by ``RelmogenDQN._store_transition`` before each ``add``); rows added without them allow every cell.
 
@@ -301,9 +301,6 @@ class QMapReplayBuffer(DictReplayBuffer):
         self.acting_masks = self.acting_labels = None
         self.demo = np.zeros(self.buffer_size, dtype=bool)
         self.labels = np.full((self.buffer_size, self.n_envs), -1, dtype=np.int64)
-        for store in (self.observations, self.next_observations):
-            if "depth" in store:
-                store["depth"] = np.zeros(store["depth"].shape, dtype=np.float16)
         q = map_side(int(action_space.n))
         self.next_masks = np.ones((self.buffer_size, self.n_envs, len(MASK_KEYS), q, q), dtype=bool)
         self.masks = np.ones_like(self.next_masks)
@@ -311,6 +308,7 @@ class QMapReplayBuffer(DictReplayBuffer):
     def __setstate__(self, state: dict) -> None:
         """Older buffers load too: without arm masks their arm cells are allowed; without the
         state's own masks they are taken from the previous transition's next masks."""
+        state = with_full_capacity(state)
         if "next_base_masks" in state:
             base = state.pop("next_base_masks")
             state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
@@ -352,14 +350,8 @@ class QMapReplayBuffer(DictReplayBuffer):
 
     def nbytes(self) -> int:
         """Bytes held by the stored arrays."""
-        arrays = [*self.observations.values(), *self.next_observations.values(), self.actions, self.rewards,
-                  self.dones, self.timeouts, self.next_masks, self.masks, self.demo, self.labels]
-        return int(sum(array.nbytes for array in arrays))
-
-    def _batch(self, store: dict[str, np.ndarray], rows, envs, env) -> TensorDict:
-        obs = self._normalize_obs({key: array[rows, envs] for key, array in store.items()}, env)
-        return {key: self.to_torch(value.astype(np.float32) if value.dtype == np.float16 else value)
-                for key, value in obs.items()}
+        extras = [self.next_masks, self.masks, self.demo, self.labels]
+        return super().nbytes() + int(sum(array.nbytes for array in extras))
 
     def _get_samples(self, batch_inds: np.ndarray, env=None) -> QMapReplaySamples:
         envs = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))

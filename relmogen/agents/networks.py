@@ -4,6 +4,16 @@ SGP-R encoder (paper appendix A.2, facts sheet section 5): RGB-D through 3 conv 
 (32 8x8/4, 64 4x4/2, 64 3x3/1), the LiDAR scan through 3 conv1d layers, the task vector
 through 2 FC layers; each branch ends in FC + ReLU; the branch outputs are concatenated.
 The same encoder serves SAC on joint velocities, so the baselines see the same inputs.
+
+Two additions of ours, both measured (results/table1/*/COMMANDS.md):
+
+* the LiDAR scan and the task vector are standardised per entry with statistics fitted once,
+  on the replay at the start of learning (``fit_input_scaling``), and kept in the weights: the
+  raw goal is in metres (std about 4 m), the scan averages 0.1, and most arm entries are
+  constant while a subgoal policy trains (the arm is tucked after every subgoal);
+* ``image_shift`` > 0 applies DrQ's random shift (pad by n pixels, crop back at a random
+  offset, per sample) to the images while ``augmenting`` is set, which SAC does for its
+  gradient steps only.
 """
 
 from __future__ import annotations
@@ -12,6 +22,7 @@ import gymnasium as gym
 import torch as th
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
+from torch.nn import functional as F
 
 DEPTH_SCALE = 3.0  # metres: the camera's maximum range maps to 1.0
 
@@ -49,7 +60,7 @@ class SGPREncoder(BaseFeaturesExtractor):
     """
 
     def __init__(self, observation_space: gym.spaces.Dict, image_dim: int = 256, scan_dim: int = 128,
-                 task_dim: int = 128):
+                 task_dim: int = 128, image_shift: int = 0):
         rgb_shape = observation_space["rgb"].shape
         self.channels_first = rgb_shape[0] == 3
         height, width = (rgb_shape[1:] if self.channels_first else rgb_shape[:2])
@@ -59,6 +70,18 @@ class SGPREncoder(BaseFeaturesExtractor):
         task_in = observation_space["task_obs"].shape[0]
         self.task = nn.Sequential(nn.Linear(task_in, 128), nn.ReLU(), nn.Linear(128, 128), nn.ReLU(),
                                   nn.Linear(128, task_dim), nn.ReLU())
+        self.image_shift, self.augmenting = int(image_shift), False
+        self.scan_scaling = InputScaling(observation_space["scan"].shape[0])
+        self.task_scaling = InputScaling(task_in)
+
+    def fit_input_scaling(self, observations: dict[str, th.Tensor]) -> None:
+        """Standardise ``scan`` and ``task_obs`` with the statistics of this batch from now on."""
+        self.scan_scaling.fit(observations["scan"].float())
+        self.task_scaling.fit(observations["task_obs"].float())
+
+    @property
+    def input_scaling_fitted(self) -> bool:
+        return bool(self.task_scaling.fitted)
 
     def image_tensor(self, observations: dict[str, th.Tensor]) -> th.Tensor:
         """RGB in [0, 1] and depth / 3 m stacked channels-first: (B, 4, H, W)."""
@@ -71,7 +94,50 @@ class SGPREncoder(BaseFeaturesExtractor):
         return th.cat([rgb, depth / DEPTH_SCALE], dim=1)
 
     def forward(self, observations: dict[str, th.Tensor]) -> th.Tensor:
-        image = self.image_fc(self.image_conv(self.image_tensor(observations)))
-        scan = self.scan(observations["scan"].float().unsqueeze(1))
-        task = self.task(observations["task_obs"].float())
+        images = self.image_tensor(observations)
+        if self.augmenting and self.image_shift:
+            images = random_shift(images, self.image_shift)
+        image = self.image_fc(self.image_conv(images))
+        scan = self.scan(self.scan_scaling(observations["scan"].float()).unsqueeze(1))
+        task = self.task(self.task_scaling(observations["task_obs"].float()))
         return th.cat([image, scan, task], dim=1)
+
+
+class InputScaling(nn.Module):
+    """``(x - mean) / std`` per entry once fitted (identity before); constant entries (std below
+    1e-3) are only centred. Mean, std and the fitted flag are buffers: saved with the weights."""
+
+    def __init__(self, size: int):
+        super().__init__()
+        self.register_buffer("mean", th.zeros(size))
+        self.register_buffer("std", th.ones(size))
+        self.register_buffer("fitted", th.zeros((), dtype=th.bool))
+
+    def fit(self, values: th.Tensor) -> None:
+        std = values.std(dim=0)
+        self.mean.copy_(values.mean(dim=0))
+        self.std.copy_(th.where(std < 1e-3, th.ones_like(std), std))
+        self.fitted.fill_(True)
+
+    def forward(self, values: th.Tensor) -> th.Tensor:
+        return (values - self.mean) / self.std
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        """Weights saved before the scaling existed load as the identity, marked fitted: the
+        network was trained on raw inputs, so it must never be refitted."""
+        if prefix + "mean" not in state_dict:
+            state_dict.update({prefix + "mean": th.zeros_like(self.mean), prefix + "std": th.ones_like(self.std),
+                               prefix + "fitted": th.ones((), dtype=th.bool)})
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+
+
+def random_shift(images: th.Tensor, pad: int) -> th.Tensor:
+    """DrQ's augmentation: each image padded by ``pad`` pixels (edge values) and cropped back to
+    its size at an independent random integer offset."""
+    batch, _, height, width = images.shape
+    padded = F.pad(images, (pad, pad, pad, pad), mode="replicate")
+    offsets = th.randint(0, 2 * pad + 1, (batch, 2), device=images.device)
+    rows = offsets[:, 0, None] + th.arange(height, device=images.device)  # (B, H)
+    cols = offsets[:, 1, None] + th.arange(width, device=images.device)  # (B, W)
+    index = th.arange(batch, device=images.device)[:, None, None]
+    return padded.permute(0, 2, 3, 1)[index, rows[:, :, None], cols[:, None, :]].permute(0, 3, 1, 2)

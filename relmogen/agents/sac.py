@@ -17,11 +17,15 @@ Training is plain SAC.
 fell from 0.1 to 0.006 while the critic's Q for the policy's own actions rose to about 3x the
 observed returns; the policy then collapsed onto a few subgoals, some of which found no plan.
 0 (the default) is SB3's behaviour.
+
+Before the first gradient step the encoder's input scaling is fitted on the replay (see
+``relmogen.agents.networks``), and the target critic's encoder gets the same statistics.
 """
 
 from __future__ import annotations
 
-from typing import Any
+import contextlib
+from typing import Any, Iterator
 
 import numpy as np
 import torch as th
@@ -29,6 +33,8 @@ from stable_baselines3 import SAC
 from stable_baselines3.common.utils import polyak_update
 from stable_baselines3.sac.policies import MultiInputPolicy
 from torch.nn import functional as F
+
+from relmogen.agents.replay import stored_rows
 
 
 class SharedEncoderSACPolicy(MultiInputPolicy):
@@ -60,6 +66,21 @@ def _q_from_features(critic, features: th.Tensor, actions: th.Tensor) -> list[th
     return [q_net(inputs) for q_net in critic.q_networks]
 
 
+INPUT_SCALING_SAMPLE = 5000  # the newest stored transitions the input statistics are fitted on
+
+
+@contextlib.contextmanager
+def augmented(encoders) -> Iterator[None]:
+    """Image augmentation on (``SGPREncoder.image_shift``) for the encoders inside the block."""
+    for encoder in encoders:
+        encoder.augmenting = True
+    try:
+        yield
+    finally:
+        for encoder in encoders:
+            encoder.augmenting = False
+
+
 class SharedEncoderSAC(SAC):
     """SB3 SAC whose gradient step encodes each observation batch once (see module doc)."""
 
@@ -70,6 +91,7 @@ class SharedEncoderSAC(SAC):
         super().__init__(policy, *args, **kwargs)
 
     def train(self, gradient_steps: int, batch_size: int = 64) -> None:
+        self._fit_input_scaling_once()
         self.policy.set_training_mode(True)
         optimizers = [self.actor.optimizer, self.critic.optimizer]
         if self.ent_coef_optimizer is not None:
@@ -84,12 +106,24 @@ class SharedEncoderSAC(SAC):
             if values:
                 self.logger.record(f"train/{key}", float(np.mean(values)))
 
+    def _fit_input_scaling_once(self) -> None:
+        encoders = [self.critic.features_extractor, self.critic_target.features_extractor]
+        if not hasattr(encoders[0], "fit_input_scaling") or encoders[0].input_scaling_fitted:
+            return
+        buffer = self.replay_buffer
+        rows = stored_rows(buffer)[-max(INPUT_SCALING_SAMPLE // buffer.n_envs, 1):]
+        stored = {key: th.as_tensor(buffer.observations[key][rows].reshape(len(rows) * buffer.n_envs, -1))
+                  for key in ("scan", "task_obs")}
+        for encoder in encoders:
+            encoder.fit_input_scaling(stored)
+
     def _gradient_step(self, data, logs: dict[str, list[float]]) -> None:
         critic, target = self.critic, self.critic_target
-        features = critic.extract_features(data.observations, critic.features_extractor)
-        with th.no_grad():
-            next_features = critic.extract_features(data.next_observations, critic.features_extractor)
-            next_target_features = target.extract_features(data.next_observations, target.features_extractor)
+        with augmented([critic.features_extractor, target.features_extractor]):
+            features = critic.extract_features(data.observations, critic.features_extractor)
+            with th.no_grad():
+                next_features = critic.extract_features(data.next_observations, critic.features_extractor)
+                next_target_features = target.extract_features(data.next_observations, target.features_extractor)
         actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
         log_prob = log_prob.reshape(-1, 1)
         ent_coef = self._entropy_step(log_prob, logs)

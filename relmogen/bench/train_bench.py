@@ -87,11 +87,94 @@ def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0) ->
 
 
 def bench_train(task: str = "PushDoorNav", presets: tuple[str, ...] = ("cpu", "paper"), updates: int = 10,
-                advance=None) -> dict:
+                advance=None, subgoals: int = 1000) -> dict:
+    """The update and step rates of every algorithm and preset, then one real relmogen-r
+    ``cpu`` training run (``training_run``, see ``bench_training_run``)."""
     runs = []
     for preset in presets:
         for algo in ALGOS:
             runs.append(bench_one(task, algo, preset, updates))
             if advance is not None:
                 advance()
-    return {"task": task, "updates_timed": updates, "runs": runs}
+    training_run = bench_training_run(task, "cpu", subgoals)
+    return {"task": task, "updates_timed": updates, "runs": runs, "training_run": training_run,
+            "episodes_per_cpu_hour": training_run["episodes_per_cpu_hour"],
+            "subgoals_per_cpu_s": training_run["subgoals_per_cpu_s"]}
+
+
+# ------------------------------------------------------------------ a real training run
+class _Stopwatch:
+    """Wall seconds spent inside wrapped callables, per name."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+
+    def wrap(self, name: str, function):
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+        return timed
+
+
+def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals: int = 1000,
+                       out: str | None = None) -> dict:
+    """One ``relmogen train`` run of relmogen-r (trainer and environment workers as training
+    makes them) for about ``subgoals`` subgoals past the preset's ``learning_starts``. CPU time
+    (psutil, the process tree) and the trainer's wall-clock shares are counted from the first
+    gradient update, so the figures describe the steady state of a long run."""
+    import tempfile
+    from pathlib import Path
+
+    from relmogen.experiments import train as training
+
+    config = resolve_config(task, "relmogen-r", preset=preset, episodes=10**6,
+                            overrides=["run.eval_every_episodes=1000000"])
+    config = config.model_copy(update={"episodes": -(-(config.algo_params.learning_starts + subgoals) // 25)})
+    with tempfile.TemporaryDirectory(dir=out) as folder:
+        run_dir = training.new_run_dir(Path(folder), config)
+        env = training.make_training_env(config)
+        model = training.build_model(config, env)
+        watch, marks = _Stopwatch(), {}
+        first_train = model.train
+
+        def train_and_mark(*args, **kwargs):
+            if "start" not in marks:
+                marks["start"] = (training.process_tree_cpu_seconds(), time.perf_counter(), model.num_timesteps)
+                watch.seconds.clear()  # the shares count from the first update, as the CPU time does
+            return first_train(*args, **kwargs)
+
+        model.train = watch.wrap("update", train_and_mark)
+        model.env.step = watch.wrap("environment", model.env.step)
+        original_monitor = training.TrainingMonitor
+
+        class TimedMonitor(original_monitor):
+            def checkpoint(self, with_replay: bool = True) -> None:
+                watch.wrap("checkpoint", super().checkpoint)(with_replay)
+
+        training.TrainingMonitor = TimedMonitor
+        try:
+            training._learn(run_dir, config, model, {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, quiet=True)
+        finally:
+            training.TrainingMonitor = original_monitor
+        cpu_end, wall_end = training.process_tree_cpu_seconds(), time.perf_counter()
+        episodes = _episodes_after(run_dir / "episodes.csv", marks["start"][2])
+    cpu_start, wall_start, steps_start = marks["start"]
+    cpu, wall, steps = cpu_end - cpu_start, wall_end - wall_start, model.num_timesteps - steps_start
+    return {
+        "task": task, "algo": "relmogen-r", "preset": preset, "n_envs": config.env.n_envs,
+        "subgoals_timed": int(steps), "episodes_timed": episodes, "cpu_s": round(cpu, 2), "wall_s": round(wall, 2),
+        "subgoals_per_cpu_s": round(steps / cpu, 3),
+        "episodes_per_cpu_hour": round(episodes / cpu * 3600, 1),
+        "episodes_per_cpu_hour_at_25_subgoals": round(steps / 25 / cpu * 3600, 1),
+        "time_shares": {name: round(seconds / wall, 3) for name, seconds in watch.seconds.items()},
+    }
+
+
+def _episodes_after(episodes_csv, timesteps: int) -> int:
+    import csv
+
+    with open(episodes_csv, newline="") as handle:
+        return sum(1 for row in csv.DictReader(handle) if int(row["timesteps"]) > timesteps)

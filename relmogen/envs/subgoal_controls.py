@@ -83,18 +83,31 @@ class RewardAccumulator:
         self.pending = 0.0
 
 
+def arm_base_distance(env: RelmogenEnv, points) -> np.ndarray:
+    """Distance (m) of world points ``(..., 3)`` from the arm's base (``robot.arm_base_position``);
+    NaN points (pixels without depth) are infinitely far."""
+    distance = np.linalg.norm(np.asarray(points, dtype=np.float64) - env.robot.arm_base_position(), axis=-1)
+    return np.nan_to_num(distance, nan=np.inf)
+
+
+def within_arm_reach(env: RelmogenEnv, points) -> np.ndarray:
+    """Which world points ``(..., 3)`` are within ``robot.spec.arm_reach`` of the arm's base:
+    beyond it no arm plan is ever found (SGP-D masks those cells, both controls skip IK there)."""
+    return arm_base_distance(env, points) <= env.robot.spec.arm_reach
+
+
 class SubgoalControl(Control):
     """Shared execution of base and arm subgoals; subclasses decode actions."""
 
     name = "subgoal"
 
     def __init__(self, env: RelmogenEnv, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
-                 arm_collision: bool = True):
+                 arm_collision: bool = True, base_goal: str = "strict"):
         self.env = env
         self.episode_steps = env.task.subgoal_steps
         self.parts = env.task.subgoal_parts
         config = MotionGeneratorConfig(base_planner=base_planner, arm_planner=arm_planner,
-                                       arm_collision_checking=arm_collision)
+                                       arm_collision_checking=arm_collision, base_goal=base_goal)
         self.mg = MotionGenerator(env, config)
 
     def execute_base(self, goal_robot_frame: np.ndarray) -> tuple[SubgoalResult, RewardAccumulator]:
@@ -103,18 +116,25 @@ class SubgoalControl(Control):
         return result, rewards.close()
 
     def execute_arm(self, pixel_row: int, pixel_col: int, push_base: np.ndarray):
+        """Reach the point seen at the pixel and push. A pixel without depth, or one whose point
+        is beyond the arm's reach (``within_arm_reach``), is a no-op without any IK."""
         rewards = RewardAccumulator(self.env)
         env = self.env
         depth = float(env.last_frame.depth[pixel_row, pixel_col])
         if depth <= 0.0:
-            result = SubgoalResult("arm", self.mg.config.arm_planner, False, "pixel has no depth")
-            return result, rewards.close()
+            return self._arm_no_op("pixel has no depth", rewards)
         point = env.camera.pixel_to_world(env.last_frame, pixel_col, pixel_row)
+        if not within_arm_reach(env, point):
+            return self._arm_no_op(f"point {float(arm_base_distance(env, point)):.2f} m from the arm base, "
+                                   f"beyond its reach of {env.robot.spec.arm_reach:.2f} m", rewards)
         yaw = env.robot.base_pose()[2]
         push_world = np.array([np.cos(yaw) * push_base[0] - np.sin(yaw) * push_base[1],
                                np.sin(yaw) * push_base[0] + np.cos(yaw) * push_base[1], 0.0])
         result = self.mg.reach_and_push(point, push_world, env.np_random, rewards.tick)
         return result, rewards.close()
+
+    def _arm_no_op(self, reason: str, rewards: RewardAccumulator) -> tuple[SubgoalResult, RewardAccumulator]:
+        return SubgoalResult("arm", self.mg.config.arm_planner, False, reason), rewards.close()
 
     def decode_continuous(self, action) -> tuple[str, tuple]:
         """A ``subgoal-r`` action -> ("base", (robot-frame goal x, y, yaw change),) or
@@ -279,8 +299,7 @@ class SubgoalDControl(SubgoalControl):
         centres = Q_DOWNSAMPLE * np.arange(self.q) + Q_DOWNSAMPLE // 2
         rows, cols = np.meshgrid(centres, centres, indexing="ij")
         points, has_depth = env.camera.pixels_to_world(frame, cols, rows)
-        distance = np.linalg.norm(points - env.robot.arm_base_position(), axis=-1)
-        reachable = has_depth & (np.nan_to_num(distance, nan=np.inf) <= env.robot.spec.arm_reach)
+        reachable = has_depth & within_arm_reach(env, points)
         if self.push_frame == "base":
             return reachable
         normals = env.camera.surface_normals(frame, cols, rows)

@@ -32,6 +32,9 @@ class EnvConfig(_Strict):
     arm_collision_train: bool = False
     episode_steps: int | None = Field(None, ge=1)  # None: the paper's (25 subgoals / 750 joint steps)
     push_frame: Literal["base", "surface"] = "base"  # relmogen-d's push bins (subgoal_controls.py; ours: surface)
+    # a base subgoal whose goal pose is in collision: "strict" is a no-op (the paper's),
+    # "nearest_free" drives to the nearest free pose toward it (ours; base_planner.py)
+    base_goal: Literal["strict", "nearest_free"] = "strict"
 
 
 class AlgoConfig(_Strict):
@@ -47,6 +50,8 @@ class AlgoConfig(_Strict):
     # SAC family: the entropy temperature is learned, starting here (SB3's "auto" starts at 1.0)
     ent_coef_init: float = Field(1.0, gt=0)
     ent_coef_min: float = Field(0.0, ge=0)  # floor under the learned temperature; 0 = none (SB3)
+    target_entropy: float | None = None  # SAC family; None = SB3's -dim(A)
+    image_shift: int = Field(0, ge=0)  # SAC family: DrQ's random shift of the images in each batch (pixels; 0 = off)
     beta_ub: float | None = None  # OAC only
     delta: float | None = None  # OAC only
     # DQN (relmogen-d) only
@@ -70,10 +75,18 @@ class AlgoConfig(_Strict):
 class RunSettings(_Strict):
     eval_every_episodes: int = Field(100, ge=1)
     eval_episodes: int = Field(10, ge=1)
-    checkpoint_every_episodes: int = Field(20, ge=1)
+    checkpoint_every_episodes: int = Field(20, ge=1)  # the model
+    replay_every_episodes: int = Field(20, ge=1)  # the replay buffer (at a model checkpoint: a multiple of it)
     # One learner thread: on a 2-core machine shared with the environment workers, two torch
     # threads made updates about 2.4x slower (measured under load).
     torch_threads: int = Field(1, ge=1)
+
+    @model_validator(mode="after")
+    def _replay_saved_with_a_model(self) -> RunSettings:
+        if self.replay_every_episodes % self.checkpoint_every_episodes:
+            raise ValueError(f"run.replay_every_episodes ({self.replay_every_episodes}) must be a multiple of "
+                             f"run.checkpoint_every_episodes ({self.checkpoint_every_episodes})")
+        return self
 
 
 class TrainConfig(_Strict):

@@ -3,6 +3,9 @@
 Each run directory contributes its final evaluation (the newest ``eval/*.json`` with arm
 collision checking on, else the last periodic evaluation) and its ``episodes.csv`` curve.
 Curves are averaged over seeds on a common grid of environment episodes (the paper's x-axis).
+
+``table.json`` holds the rows of ``table.md`` (the reference table, then every evaluation
+setting) as data, for ``relmogen.experiments.table1`` to gather into the paper's Table I.
 """
 
 from __future__ import annotations
@@ -35,8 +38,7 @@ def final_evaluation(run_dir: Path) -> dict | None:
     trained with, the most episodes, then the newest (planner-swap and scene-transfer
     evaluations sit beside it and are reported separately); else the last periodic one."""
     config = read_config(run_dir / "config.yaml")
-    evals = [json.loads(p.read_text()) | {"_mtime": p.stat().st_mtime}
-             for p in (run_dir / "eval").glob("*collision-on*.json")]
+    evals = [read_evaluation(p) | {"_mtime": p.stat().st_mtime} for p in (run_dir / "eval").glob("*collision-on*.json")]
     evals = [e for e in evals if policy_of(e) == "deterministic"]
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
@@ -51,6 +53,19 @@ def final_evaluation(run_dir: Path) -> dict | None:
     return None
 
 
+def read_evaluation(path: Path) -> dict:
+    """An ``eval/*.json`` file's fields, with ``arm_collision`` taken from the file name where
+    the evaluation does not record it (joint-control evaluations)."""
+    evaluation = json.loads(path.read_text())
+    evaluation.setdefault("arm_collision", "collision-off" not in path.name)
+    return evaluation
+
+
+def is_assisted(config) -> bool:
+    """Whether the run learned from more than its reward: oracle demonstrations or oracle labels."""
+    return config.algo_params.demo_episodes > 0 or config.algo_params.oracle_labels
+
+
 def summarise(values: list[float]) -> dict[str, float]:
     arr = np.asarray(values, dtype=float)
     return {"mean": float(arr.mean()), "std": float(arr.std()), "max": float(arr.max()), "n": len(arr)}
@@ -61,8 +76,8 @@ def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
     for run_dir in map(Path, run_dirs):
         config = read_config(run_dir / "config.yaml")
         groups[(config.task, config.algo)].append({
-            "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir),
-            "all_evals": [json.loads(p.read_text()) for p in sorted((run_dir / "eval").glob("*.json"))],
+            "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir), "assisted": is_assisted(config),
+            "all_evals": [read_evaluation(p) for p in sorted((run_dir / "eval").glob("*.json"))],
             "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
         })
     return groups
@@ -96,54 +111,132 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
     return {key: np.array([_number(r.get(key)) for r in rows]) for key in CURVE_KEYS}
 
 
-def markdown_table(groups: dict[tuple[str, str], list[dict]]) -> str:
-    lines = ["| task | algorithm | seeds | " + " | ".join(TABLE_METRICS) + " | episodes | wall-clock h | CPU h |",
-             "|---|---|---|" + "---|" * len(TABLE_METRICS) + "---|---|---|"]
-    for (task, algo), runs in sorted(groups.items()):
-        evaluated = [r for r in runs if r["eval"] is not None]
-        cells = []
-        for metric in TABLE_METRICS:
-            if not evaluated:
-                cells.append("-")
-                continue
-            s = summarise([r["eval"][metric] for r in evaluated])
-            cells.append(f"{s['mean']:.2f} / {s['std']:.2f} / {s['max']:.2f}")
-        episodes = [r["state"].get("episodes", len(r["curve"]["episode"])) for r in runs]
-        hours = [r["state"].get("wall_time_s", 0.0) / 3600 for r in runs]
-        cpu = [r["state"]["cpu_time_s"] / 3600 for r in runs if "cpu_time_s" in r["state"]]
-        cpu_cell = f"{np.mean(cpu):.2f}" if len(cpu) == len(runs) else "-"
-        lines.append(f"| {task} | {algo} | {len(runs)} | " + " | ".join(cells)
-                     + f" | {int(np.mean(episodes))} | {np.mean(hours):.2f} | {cpu_cell} |")
-    lines.append("")
-    lines.append("Cells are mean / std / max over seeds of the final evaluation (deterministic policy). "
-                 "episodes, wall-clock h and CPU h (trainer plus environment workers) are means over seeds.")
-    return "\n".join(lines)
-
-
-SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "policy", "episodes")
+SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "policy", "eval_episodes")
 SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction",
                    "repeated_subgoal_rate", "unchanged_view_rate", "oracle_agreement")
+ROW_METRICS = TABLE_METRICS + tuple(metric for metric in SETTING_METRICS if metric not in TABLE_METRICS)
+TABLE_JSON_SCHEMA_VERSION = 1
 
 
-def settings_table(groups: dict[tuple[str, str], list[dict]]) -> str:
-    """Every evaluation setting found (planner swaps, scene transfer, collision off, episode
-    counts): mean / std / max over the seeds evaluated with it."""
-    lines = ["| task | algorithm | " + " | ".join(SETTING_KEYS) + " | seeds | " + " | ".join(SETTING_METRICS) + " |",
-             "|---|---|" + "---|" * (len(SETTING_KEYS) + 1 + len(SETTING_METRICS))]
+def evaluation_setting(evaluation: dict) -> dict:
+    """The conditions an evaluation ran under, keyed as ``SETTING_KEYS``; None where it records none."""
+    return {"scene": evaluation.get("scene"), "base_planner": evaluation.get("base_planner"),
+            "arm_planner": evaluation.get("arm_planner"), "arm_collision": evaluation.get("arm_collision", True),
+            "policy": policy_of(evaluation), "eval_episodes": evaluation.get("episodes")}
+
+
+def _shared_setting(evaluations: list[dict]) -> dict:
+    """The setting the evaluations share, key by key; None where they differ or there are none."""
+    settings = [evaluation_setting(evaluation) for evaluation in evaluations]
+    return {key: settings[0][key] if settings and all(s[key] == settings[0][key] for s in settings) else None
+            for key in SETTING_KEYS}
+
+
+def _metric_summaries(evaluations: list[dict]) -> dict[str, dict | None]:
+    """Per metric of ``ROW_METRICS``: mean / std / max over the evaluations reporting it, else None."""
+    summaries = {}
+    for metric in ROW_METRICS:
+        values = [evaluation[metric] for evaluation in evaluations if metric in evaluation]
+        summary = summarise(values) if values else None
+        summaries[metric] = {key: summary[key] for key in ("mean", "std", "max")} if summary else None
+    return summaries
+
+
+def _budget(runs: list[dict]) -> dict[str, float | None]:
+    """Means over the runs of the training budget spent: episodes, wall-clock hours and CPU hours
+    (trainer plus environment workers; None unless every run logged it)."""
+    episodes = [run["state"].get("episodes", len(run["curve"]["episode"])) for run in runs]
+    wall_hours = [run["state"].get("wall_time_s", 0.0) / 3600 for run in runs]
+    cpu_hours = [run["state"]["cpu_time_s"] / 3600 for run in runs if "cpu_time_s" in run["state"]]
+    return {"episodes": float(np.mean(episodes)), "wall_hours": float(np.mean(wall_hours)),
+            "cpu_hours": float(np.mean(cpu_hours)) if len(cpu_hours) == len(runs) else None}
+
+
+def _row(task: str, algo: str, reference: bool, runs: list[dict], evaluations: list[dict], setting: dict) -> dict:
+    """One table row: its setting, seed count, assisted flag, training budget and metric summaries."""
+    return {"task": task, "algorithm": algo, "reference": reference, **setting, "seeds": len(runs),
+            "assisted": any(run.get("assisted", False) for run in runs), **_budget(runs),
+            **_metric_summaries(evaluations)}
+
+
+def reference_rows(groups: dict[tuple[str, str], list[dict]]) -> list[dict]:
+    """A row per (task, algorithm) over each seed's reference evaluation (``final_evaluation``)."""
+    rows = []
     for (task, algo), runs in sorted(groups.items()):
-        by_setting: dict[tuple, list[dict]] = defaultdict(list)
+        evaluations = [run["eval"] for run in runs if run["eval"] is not None]
+        rows.append(_row(task, algo, True, runs, evaluations, _shared_setting(evaluations)))
+    return rows
+
+
+def setting_rows(groups: dict[tuple[str, str], list[dict]]) -> list[dict]:
+    """A row per (task, algorithm, evaluation setting) found among the runs' ``eval/*.json``:
+    planner swaps, scene transfer, collision off, policies and episode counts."""
+    rows = []
+    for (task, algo), runs in sorted(groups.items()):
+        by_setting: dict[tuple, list[tuple[dict, dict]]] = defaultdict(list)
         for run in runs:
             for evaluation in run.get("all_evals", []):
-                setting = dict(evaluation, policy=policy_of(evaluation))
-                by_setting[tuple(str(setting.get(key, "-")) for key in SETTING_KEYS)].append(evaluation)
-        for setting, evals in sorted(by_setting.items()):
-            cells = []
-            for metric in SETTING_METRICS:
-                values = [e[metric] for e in evals if metric in e]
-                s = summarise(values) if values else None
-                cells.append(f"{s['mean']:.2f} / {s['std']:.2f} / {s['max']:.2f}" if s else "-")
-            lines.append(f"| {task} | {algo} | " + " | ".join(setting) + f" | {len(evals)} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+                by_setting[tuple(evaluation_setting(evaluation).values())].append((run, evaluation))
+        for setting in sorted(by_setting, key=lambda values: [text_cell(value) for value in values]):
+            pairs = by_setting[setting]
+            evaluated = list({str(run["run_dir"]): run for run, _ in pairs}.values())
+            rows.append(_row(task, algo, False, evaluated, [e for _, e in pairs], dict(zip(SETTING_KEYS, setting))))
+    return rows
+
+
+def table_json(rows: list[dict]) -> dict:
+    """``table.json``: ``schema_version`` and ``rows``, those of ``table.md`` in its order. A row has
+    ``task``, ``algorithm``, ``reference`` (true: the reference table, each seed's ``final_evaluation``;
+    false: one evaluation setting), the setting (``SETTING_KEYS``; null where the evaluations disagree or
+    do not record it), ``seeds``, ``assisted``, the mean training budget (``episodes``, ``wall_hours``,
+    ``cpu_hours``) and per metric of ``ROW_METRICS`` ``{mean, std, max}`` over seeds, or null."""
+    return {"schema_version": TABLE_JSON_SCHEMA_VERSION, "rows": rows}
+
+
+def text_cell(value) -> str:
+    """A markdown cell for a plain value: ``-`` for None."""
+    return "-" if value is None else str(value)
+
+
+def summary_cell(summary: dict | None) -> str:
+    """A markdown cell ``mean / std / max`` for a metric summary: ``-`` for None."""
+    return "-" if summary is None else f"{summary['mean']:.2f} / {summary['std']:.2f} / {summary['max']:.2f}"
+
+
+def hours_cell(hours: float | None) -> str:
+    """A markdown cell for hours: two decimals, ``-`` for None."""
+    return "-" if hours is None else f"{hours:.2f}"
+
+
+def training_of(row: dict) -> str:
+    """``assisted`` for a row with demonstrations or oracle labels, else ``reward-only``."""
+    return "assisted" if row["assisted"] else "reward-only"
+
+
+def markdown_grid(header: list[str], lines: list[list[str]]) -> str:
+    """A markdown table with the header and a line per list of cells."""
+    return "\n".join(["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+                     + ["| " + " | ".join(cells) + " |" for cells in lines])
+
+
+def reference_table(rows: list[dict]) -> str:
+    """The markdown table of the reference rows, with a note on what the cells are."""
+    header = ["task", "algorithm", "training", "seeds", *TABLE_METRICS, "episodes", "wall-clock h", "CPU h"]
+    lines = [[row["task"], row["algorithm"], training_of(row), str(row["seeds"]),
+              *(summary_cell(row[metric]) for metric in TABLE_METRICS),
+              str(int(row["episodes"])), hours_cell(row["wall_hours"]), hours_cell(row["cpu_hours"])] for row in rows]
+    return (markdown_grid(header, lines) + "\n\nCells are mean / std / max over seeds of the final evaluation "
+            "(deterministic policy). episodes, wall-clock h and CPU h (trainer plus environment workers) are means "
+            "over seeds. training: assisted where a run used oracle demonstrations or oracle labels.")
+
+
+def settings_table(rows: list[dict]) -> str:
+    """The markdown table of the evaluation-setting rows: mean / std / max over the seeds
+    evaluated with each setting."""
+    header = ["task", "algorithm", "training", *SETTING_KEYS, "seeds", *SETTING_METRICS]
+    lines = [[row["task"], row["algorithm"], training_of(row), *(text_cell(row[key]) for key in SETTING_KEYS),
+              str(row["seeds"]), *(summary_cell(row[metric]) for metric in SETTING_METRICS)] for row in rows]
+    return markdown_grid(header, lines)
 
 
 def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray) -> np.ndarray:
@@ -207,13 +300,16 @@ def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
 
 
 def write_report(run_dirs: list[Path], out: Path) -> dict[str, str]:
+    """Writes ``table.md``, ``table.json`` and ``curves.png`` in ``out``; returns their paths and the
+    markdown."""
     groups = collect(run_dirs)
     if not groups:
         raise ValueError("no run directories given")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    table = markdown_table(groups)
-    table += "\n\n## Every evaluation setting\n\n" + settings_table(groups) + "\n"
+    references, settings = reference_rows(groups), setting_rows(groups)
+    table = reference_table(references) + "\n\n## Every evaluation setting\n\n" + settings_table(settings) + "\n"
     (out / "table.md").write_text(table + "\n")
+    (out / "table.json").write_text(json.dumps(table_json(references + settings), indent=1) + "\n")
     curves = plot_curves(groups, out / "curves.png")
-    return {"table": str(out / "table.md"), "curves": str(curves), "markdown": table}
+    return {"table": str(out / "table.md"), "json": str(out / "table.json"), "curves": str(curves), "markdown": table}

@@ -2,10 +2,13 @@
 
 A run directory ``{task}__{algo}__{seed}__{time}`` holds ``config.yaml`` (the resolved
 configuration), ``episodes.csv`` (one row per finished training episode), TensorBoard events
-(x-axis: environment episodes, as the paper plots), and ``checkpoints/`` with the model AND
-its replay buffer. Checkpoints are written to a fresh folder and published by atomically
-replacing ``checkpoints/latest``, so ``kill -9`` at any moment leaves the previous one
-intact; ``--resume RUN_DIR`` continues from it (at most one checkpoint interval is lost).
+(x-axis: environment episodes, as the paper plots), and ``checkpoints/`` with the model and,
+in its own folder, the replay buffer. The model is saved every ``run.checkpoint_every_episodes``
+and the replay (gigabytes for SGP-R) every ``run.replay_every_episodes``. Each is written to a
+fresh folder and published by atomically replacing ``checkpoints/latest`` /
+``checkpoints/latest_replay``, so ``kill -9`` at any moment leaves the previous ones intact;
+``--resume RUN_DIR`` continues from them: at most one model interval of learning is lost, and
+the transitions collected since the last replay save.
 """
 
 from __future__ import annotations
@@ -29,13 +32,15 @@ from torch.utils.tensorboard import SummaryWriter
 from relmogen.agents.demonstrations import OracleLabels, add_demonstrations
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.networks import SGPREncoder
-from relmogen.agents.replay import resize_replay_buffer
+from relmogen.agents.replay import CompactDictReplayBuffer, resize_replay_buffer
 from relmogen.agents.sac import OAC, SharedEncoderSAC
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import TrainConfig, override_config, read_config, save_config
 
 CHECKPOINTS = "checkpoints"
-LATEST = "latest"  # a file naming the newest complete checkpoint folder
+LATEST = "latest"  # a file naming the newest complete model checkpoint folder
+LATEST_REPLAY = "latest_replay"  # a file naming the newest complete replay folder
+REPLAY_FILE = "replay_buffer.pkl"
 EPISODE_FIELDS = ["episode", "timesteps", "wall_time_s", "return", "length", "success",
                   "base_fraction", "subgoal_success",  # subgoal controls only
                   "closed_10"]  # tasks that count closed items (ArrangeKitchenMM)
@@ -56,7 +61,8 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
         kwargs["episode_steps"] = config.env.episode_steps
     if config.control != "joint":
         kwargs.update(base_planner=base_planner or config.env.base_planner,
-                      arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision)
+                      arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
+                      base_goal=config.env.base_goal)
     if config.control == "subgoal-d":
         kwargs["push_frame"] = config.env.push_frame
     return kwargs
@@ -74,13 +80,15 @@ def build_model(config: TrainConfig, env):
     if config.algo == "relmogen-d":
         return build_dqn(config, env)
     params = config.algo_params
-    policy_kwargs = dict(features_extractor_class=SGPREncoder, normalize_images=False, net_arch=params.net_arch)
+    policy_kwargs = dict(features_extractor_class=SGPREncoder, normalize_images=False, net_arch=params.net_arch,
+                         features_extractor_kwargs={"image_shift": params.image_shift})
     common = dict(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                   batch_size=params.batch_size, tau=params.tau, gamma=params.gamma,
                   learning_starts=params.learning_starts, train_freq=params.train_freq,
                   gradient_steps=params.gradient_steps, ent_coef=f"auto_{params.ent_coef_init}",
                   ent_coef_min=params.ent_coef_min,
-                  policy_kwargs=policy_kwargs, seed=config.seed,
+                  target_entropy="auto" if params.target_entropy is None else params.target_entropy,
+                  policy_kwargs=policy_kwargs, replay_buffer_class=CompactDictReplayBuffer, seed=config.seed,
                   device=resolve_device(config.device), verbose=0)
     if config.algo == "oac":
         return OAC(beta_ub=params.beta_ub or 4.66, delta=params.delta or 23.53, **common)
@@ -120,28 +128,47 @@ def latest_checkpoint(run_dir: Path) -> Path | None:
     return folder if (folder / "model.zip").is_file() else None
 
 
-def write_checkpoint(run_dir: Path, model, state: dict) -> Path:
+def latest_replay(run_dir: Path) -> Path | None:
+    """The newest saved replay buffer file: its own folder (``latest_replay``), or inside the
+    model checkpoint for runs saved before the two were split."""
     root = Path(run_dir) / CHECKPOINTS
-    folder = root / f"episode_{state['episodes']:07d}"
-    staging = root / f".staging_{os.getpid()}"
+    pointer = root / LATEST_REPLAY
+    if pointer.is_file() and (root / pointer.read_text().strip() / REPLAY_FILE).is_file():
+        return root / pointer.read_text().strip() / REPLAY_FILE
+    checkpoint = latest_checkpoint(run_dir)
+    return checkpoint / REPLAY_FILE if checkpoint is not None and (checkpoint / REPLAY_FILE).is_file() else None
+
+
+def write_checkpoint(run_dir: Path, model, state: dict, with_replay: bool = True) -> Path:
+    """The model (and, when asked, the replay buffer in its own folder) published atomically;
+    older folders of the same kind are removed once the new one is in place."""
+    root = Path(run_dir) / CHECKPOINTS
+    if with_replay:
+        _write_folder(root, f"replay_{state['episodes']:07d}", LATEST_REPLAY,
+                      lambda folder: model.save_replay_buffer(folder / REPLAY_FILE), state)
+    return _write_folder(root, f"episode_{state['episodes']:07d}", LATEST,
+                         lambda folder: model.save(folder / "model.zip"), state)
+
+
+def _write_folder(root: Path, name: str, pointer: str, write, state: dict) -> Path:
+    folder, staging = root / name, root / f".staging_{os.getpid()}"
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
-    model.save(staging / "model.zip")
-    model.save_replay_buffer(staging / "replay_buffer.pkl")
+    write(staging)
     (staging / "state.json").write_text(json.dumps(state))
     shutil.rmtree(folder, ignore_errors=True)
     os.replace(staging, folder)
-    _publish(root, folder.name)
-    for old in root.glob("episode_*"):
+    _publish(root, folder.name, pointer)
+    for old in root.glob(name.split("_")[0] + "_*"):
         if old.name != folder.name:
             shutil.rmtree(old, ignore_errors=True)
     return folder
 
 
-def _publish(root: Path, name: str) -> None:
-    tmp = root / f".{LATEST}.tmp"
+def _publish(root: Path, name: str, pointer: str) -> None:
+    tmp = root / f".{pointer}.tmp"
     tmp.write_text(name)
-    os.replace(tmp, root / LATEST)
+    os.replace(tmp, root / pointer)
 
 
 def process_tree_cpu_seconds() -> float:
@@ -234,7 +261,7 @@ class TrainingMonitor(BaseCallback):
         self.progress.update(self.bar, completed=episode,
                              stats=f"SR {np.mean(self.successes):.2f}  {sps:.1f} steps/s  {self.model.num_timesteps} steps")
         if episode % self.config.run.checkpoint_every_episodes == 0:
-            self.checkpoint()
+            self.checkpoint(with_replay=episode % self.config.run.replay_every_episodes == 0)
         if episode % self.config.run.eval_every_episodes == 0:
             self.evaluate(episode)
 
@@ -266,11 +293,11 @@ class TrainingMonitor(BaseCallback):
             elif key == "rollout/oracle_agreement":  # algo.oracle_labels
                 self.writer.add_scalar("charts/oracle_agreement", value, episode)
 
-    def checkpoint(self) -> None:
+    def checkpoint(self, with_replay: bool = True) -> None:
         self.state["wall_time_s"] = self.wall_time
         self.state["cpu_time_s"] = self.cpu_time
         self.state["timesteps"] = self.model.num_timesteps
-        write_checkpoint(self.run_dir, self.model, dict(self.state))
+        write_checkpoint(self.run_dir, self.model, dict(self.state), with_replay)
 
     def close(self) -> None:
         self.writer.close()
@@ -318,7 +345,9 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
         th.set_num_threads(config.run.torch_threads)  # as build_model does: extra threads thrash a busy CPU
         model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device),
                                          **changed)  # SB3 rebuilds schedules and buffer from these
-        model.load_replay_buffer(checkpoint / "replay_buffer.pkl")
+        replay = latest_replay(run_dir)
+        if replay is not None:  # else (killed before its first save) the replay starts empty
+            model.load_replay_buffer(replay)
         resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
     add_missing_demonstrations(run_dir, config, model, state, quiet)
     _truncate_episode_log(run_dir / "episodes.csv", state["episodes"])

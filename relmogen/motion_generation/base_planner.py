@@ -15,7 +15,10 @@ Compared with the original ReLMoGen base planner:
   is at least the start's clearance (the robot may not get deeper into the obstacle, but may
   move along or away from it); beyond that radius full clearance is required;
 * a goal outside the map window or whose footprint hits an obstacle fails immediately with
-  ``reason`` "goal outside local map" / "goal in collision".
+  ``reason`` "goal outside local map" / "goal in collision" (``goal_mode="strict"``, the
+  paper's behaviour). ``goal_mode="nearest_free"`` (ours) instead moves a goal in collision
+  back along the straight line from the robot to the nearest free pose, as a navigation
+  stack's goal tolerance does, and plans there.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ FETCH_FOOTPRINT_RADIUS = 0.279
 SELF_BLIND_MARGIN = 0.3
 BASE_STEP_M = 0.05
 BASE_STEP_RAD = 0.05
+GOAL_MODES = ("strict", "nearest_free")
 # OMPL backends are time-limited; the base gets a shorter budget than the arm.
 BASE_PLANNER_OVERRIDES: dict[str, dict] = {
     "ompl_rrtconnect": {"time_limit_s": 0.5},
@@ -203,8 +207,12 @@ def plan_base(
     planner: Planner | str = "rrt_connect",
     footprint_radius: float = FETCH_FOOTPRINT_RADIUS,
     rng: RngLike = None,
+    goal_mode: str = "strict",
 ) -> BasePlanResult:
-    """Plan the base from the robot's pose at scan time to a robot-frame goal (x, y, yaw)."""
+    """Plan the base from the robot's pose at scan time to a robot-frame goal (x, y, yaw);
+    ``goal_mode`` says what a goal in collision does (module doc)."""
+    if goal_mode not in GOAL_MODES:
+        raise ValueError(f"unknown goal_mode {goal_mode!r}; valid: {', '.join(GOAL_MODES)}")
     start_time = time.perf_counter()
     planner = make_base_planner(planner) if isinstance(planner, str) else planner
     goal = np.asarray(goal_xy_yaw_robot_frame, dtype=np.float64).copy()
@@ -221,12 +229,28 @@ def plan_base(
     if not bool(local_map.contains(goal[:2])):
         return result(None, "goal outside local map")
     checker = FootprintChecker(local_map, footprint_radius)
+    note = ""
     if checker.in_collision(goal):
-        return result(None, "goal in collision")
+        if goal_mode == "strict":
+            return result(None, "goal in collision")
+        requested = float(np.hypot(goal[0], goal[1]))
+        goal = nearest_free_goal(goal, checker)
+        note = f"goal in collision, moved {requested - float(np.hypot(goal[0], goal[1])):.2f} m back; "
     if np.hypot(goal[0], goal[1]) < 1e-6:
-        return result(base_extend_fn()(np.zeros(3), goal), "rotation in place")
+        return result(base_extend_fn()(np.zeros(3), goal), note + "rotation in place")
     plan = planner.plan(base_planning_problem(local_map, goal, checker), as_generator(rng))
-    return result(plan.path, plan.reason)
+    return result(plan.path, note + plan.reason)
+
+
+def nearest_free_goal(goal: np.ndarray, checker: FootprintChecker) -> np.ndarray:
+    """The free pose nearest ``goal`` on the straight line from the robot (0, 0) to it, with
+    the goal's yaw; the start itself (a rotation in place) when the whole line is blocked."""
+    distance = float(np.hypot(goal[0], goal[1]))
+    for along in np.arange(distance, 0.0, -BASE_STEP_M):
+        candidate = np.array([goal[0] * along / distance, goal[1] * along / distance, goal[2]])
+        if not checker.in_collision(candidate):
+            return candidate
+    return np.array([0.0, 0.0, goal[2]])
 
 
 def _to_world(local_map: LocalMap, path_robot: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 import pybullet as p
 
 from relmogen.motion_generation.arm import ArmConfig, ArmMotion
-from relmogen.motion_generation.base_planner import make_base_planner, plan_base
+from relmogen.motion_generation.base_planner import GOAL_MODES, make_base_planner, plan_base
 from relmogen.motion_generation.planners import BACKENDS
 from relmogen.simulation.frames import to_local
 from relmogen.simulation.occupancy import LocalMap, build_local_map
@@ -35,6 +35,7 @@ class MotionGeneratorConfig:
     base_planner: str = "rrt_connect"
     arm_planner: str = "rrt_connect"
     arm_collision_checking: bool = True  # the paper trains with False, evaluates with True
+    base_goal: str = "strict"  # a base goal in collision: "strict" fails (paper), "nearest_free" (ours)
     map_size_m: float = 5.0
     map_resolution: float = 0.05
     arm: ArmConfig = field(default_factory=ArmConfig)
@@ -43,6 +44,8 @@ class MotionGeneratorConfig:
         for name in (self.base_planner, self.arm_planner):
             if name not in BACKENDS:
                 raise ValueError(f"unknown planner {name!r}; valid planners: {', '.join(sorted(BACKENDS))}")
+        if self.base_goal not in GOAL_MODES:
+            raise ValueError(f"unknown base_goal {self.base_goal!r}; valid: {', '.join(GOAL_MODES)}")
 
 
 class WallSeconds(float):
@@ -119,7 +122,7 @@ class MotionGenerator:
     def move_base(self, goal_robot_frame: np.ndarray, rng: np.random.Generator, tick: Tick) -> SubgoalResult:
         planner = self.config.base_planner
         plan = plan_base(self.local_map(), goal_robot_frame, self._base_planner,
-                         self.env.robot.spec.base_radius, rng)
+                         self.env.robot.spec.base_radius, rng, goal_mode=self.config.base_goal)
         if not plan.success:
             return SubgoalResult("base", planner, False, plan.reason, plan.planning_time_s)
         driven, sim_time, stopped_at = self._follow(plan.path_world, tick)

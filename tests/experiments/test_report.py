@@ -7,13 +7,15 @@ import numpy as np
 import pytest
 
 from relmogen.experiments.config import resolve_config, save_config
-from relmogen.experiments.report import _counts_items, final_evaluation, read_curve, write_report
+from relmogen.cli import main
+from relmogen.experiments.report import ROW_METRICS, _counts_items, final_evaluation, read_curve, write_report
+from relmogen.experiments.table1 import write_table1
 
 
-def fake_run(root, algo, seed, success_rate, spl):
+def fake_run(root, algo, seed, success_rate, spl, overrides=()):
     run = root / f"PushDoorNav__{algo}__{seed}"
     (run / "eval").mkdir(parents=True)
-    save_config(resolve_config("PushDoorNav", algo, seed=seed, preset="cpu"), run / "config.yaml")
+    save_config(resolve_config("PushDoorNav", algo, seed=seed, preset="cpu", overrides=overrides), run / "config.yaml")
     (run / "eval" / "eval_collision-on.json").write_text(json.dumps(
         {"success_rate": success_rate, "spl": spl, "closed_5": 0.0, "closed_10": 0.0}))
     with open(run / "episodes.csv", "w", newline="") as handle:
@@ -62,12 +64,16 @@ def test_reference_evaluation_uses_the_training_planners_and_the_most_episodes(t
     assert final_evaluation(run)["success_rate"] == 0.7  # the reference is the deterministic policy
 
 
+def write_swap(run, success_rate):
+    (run / "eval" / "swap.json").write_text(json.dumps(
+        {"success_rate": success_rate, "spl": 0.1, "closed_10": 0.0, "episodes": 50, "scene": "office_A",
+         "base_planner": "lazy_prm", "arm_planner": "lazy_prm", "arm_collision": True}))
+
+
 def test_every_evaluation_setting_gets_a_row(tmp_path):
     runs = [fake_run(tmp_path, "relmogen-r", s, 0.5, 0.4) for s in (0, 1)]
     for run, rate in zip(runs, (0.2, 0.4)):
-        (run / "eval" / "swap.json").write_text(json.dumps(
-            {"success_rate": rate, "spl": 0.1, "closed_10": 0.0, "episodes": 50, "scene": "office_A",
-             "base_planner": "lazy_prm", "arm_planner": "lazy_prm", "arm_collision": True}))
+        write_swap(run, rate)
     table = write_report(runs, tmp_path / "report")["markdown"]
     swap = next(line for line in table.splitlines() if "lazy_prm" in line)
     assert "| 2 | 0.30 / 0.10 / 0.40 |" in swap
@@ -81,3 +87,74 @@ def test_curves_show_items_closed_for_tasks_that_count_them(tmp_path):
     curve = read_curve(kitchen)
     np.testing.assert_array_equal(curve["closed_10"], [1, 3])
     assert _counts_items([{"curve": curve}])
+
+
+DEMONSTRATIONS = ["algo.demo_episodes=5"]
+
+
+def markdown_rows(markdown):
+    """The data lines of every markdown table, as lists of cells."""
+    return [[cell.strip() for cell in line.strip("|").split("|")] for line in markdown.splitlines()
+            if line.startswith("| ") and not line.startswith("| task |")]
+
+
+def test_table_json_has_a_typed_row_per_table_md_row(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", s, sr, 0.5) for s, sr in [(0, 0.9), (1, 1.0), (2, 0.8)]]
+    runs.append(fake_run(tmp_path, "relmogen-d", 0, 0.4, 0.3, overrides=DEMONSTRATIONS))
+    runs.append(fake_run(tmp_path, "sac", 0, 0.0, 0.0))
+    write_swap(runs[0], 0.2)
+    result = write_report(runs, tmp_path / "report")
+    table = json.loads((tmp_path / "report" / "table.json").read_text())
+    assert table["schema_version"] == 1 and result["json"].endswith("table.json")
+    rows, md_rows = table["rows"], markdown_rows(result["markdown"])
+    assert len(rows) == len(md_rows) == 3 + 4  # reference rows, then the settings (relmogen-r has a swap)
+    for row, cells in zip(rows, md_rows):
+        assert cells[:3] == [row["task"], row["algorithm"], "assisted" if row["assisted"] else "reward-only"]
+        assert str(row["seeds"]) in cells
+        assert isinstance(row["task"], str) and isinstance(row["algorithm"], str) and isinstance(row["policy"], str)
+        assert isinstance(row["arm_collision"], bool) and isinstance(row["assisted"], bool)
+        assert isinstance(row["seeds"], int) and isinstance(row["episodes"], float)
+        assert isinstance(row["cpu_hours"], float)
+        assert {"base_planner", "arm_planner", "scene"} <= row.keys()
+        for metric in ROW_METRICS:
+            assert row[metric] is None or set(row[metric]) == {"mean", "std", "max"}
+    reference = {row["algorithm"]: row for row in rows if row["reference"]}
+    assert reference["relmogen-d"]["assisted"] and not reference["relmogen-r"]["assisted"]
+    assert reference["relmogen-r"]["seeds"] == 3 and reference["relmogen-r"]["episodes"] == 100
+    assert reference["relmogen-r"]["cpu_hours"] == pytest.approx(0.5)  # mean of 0.25, 0.5, 0.75
+    assert reference["relmogen-r"]["success_rate"] == pytest.approx({"mean": 0.9, "std": np.std([0.9, 1.0, 0.8]),
+                                                                     "max": 1.0})
+    assert reference["relmogen-r"]["policy"] == "deterministic" and reference["relmogen-r"]["arm_collision"] is True
+    swap = next(row for row in rows if row["base_planner"] == "lazy_prm")
+    assert (swap["seeds"], swap["closed_5"], swap["success_rate"]["mean"]) == (1, None, 0.2)
+
+
+def fake_report(folder, algo, overrides=()):
+    runs = [fake_run(folder / "runs", algo, seed, rate, 0.5, overrides)
+            for seed, rate in [(0, 0.9), (1, 1.0), (2, 0.8)]]
+    write_report(runs, folder)
+
+
+def test_table1_sets_reward_only_runs_beside_the_paper_and_assisted_runs_apart(tmp_path):
+    fake_report(tmp_path / "PushDoorNav__relmogen-r", "relmogen-r")
+    fake_report(tmp_path / "PushDoorNav__relmogen-d", "relmogen-d", DEMONSTRATIONS)
+    readme = write_table1(tmp_path).read_text()
+    main_table, assisted, budget = readme.split("\n## ")
+    lines = {cells[0]: cells for cells in markdown_rows(main_table)}
+    assert list(lines) == ["PointNav", "TabletopReachM", "PushDoorNav", "ButtonDoorNav", "InteractiveObstaclesNav",
+                           "ArrangeKitchenMM", "ArrangeChairMM"]
+    assert lines["PointNav"] == ["PointNav", "SR", "-", "0.72", "-", "0.68", "-", "0.60", "-", "0.46", "-", "0.33"]
+    assert lines["ArrangeKitchenMM"][3::2] == ["4.91", "6.10", "4.95", "3.55", "4.67"]
+    assert lines["ArrangeChairMM"][3::2] == ["0.11", "0.36", "0.00", "0.00", "0.00"]
+    std = np.std([0.9, 1.0, 0.8])
+    assert lines["PushDoorNav"][2:6] == [f"0.90 / {std:.2f} / 1.00 (3)", "0.97", "-", "0.41"]  # relmogen-d: assisted
+    assert assisted.startswith("Assisted runs: demonstrations or oracle labels; not comparable")
+    assert markdown_rows(assisted) == [["PushDoorNav", "relmogen-d", "PushDoorNav__relmogen-d", "SR",
+                                        f"0.90 / {std:.2f} / 1.00 (3)", "0.41"]]
+    assert [cells[:3] for cells in markdown_rows(budget)] == [["PushDoorNav", "relmogen-r", "reward-only"],
+                                                              ["PushDoorNav", "relmogen-d", "assisted"]]
+
+
+def test_table1_without_reports_is_a_one_line_error(tmp_path, capsys):
+    assert main(["report", "--table1", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.count("\n") == 1

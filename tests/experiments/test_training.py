@@ -21,7 +21,7 @@ from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.experiments.config import read_config, resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_policy
-from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, env_kwargs, latest_checkpoint,
+from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, env_kwargs, latest_checkpoint, latest_replay,
                                        read_resume_log, resume, train)
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 
@@ -49,7 +49,7 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     assert {row["closed_10"] for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))} == {""}
     state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
     assert state["episodes"] == episodes and state["timesteps"] >= episodes
-    assert (latest_checkpoint(run_dir) / "replay_buffer.pkl").is_file()
+    assert (latest_replay(run_dir)).is_file()
     # resume with a larger budget: continues from the checkpoint, keeps the replay buffer, and
     # uses the config's torch threads (two OpenMP threads on a busy 2-core machine thrash)
     th.set_num_threads(2)
@@ -86,7 +86,7 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
 def test_resume_with_a_changed_schedule_grows_the_replay_buffer_and_logs_the_change(tmp_path):
     config = resolve_config("PointNav", "relmogen-d", seed=0, preset="tiny", episodes=2)
     run_dir = train(config, tmp_path, quiet=True)
-    stored = load_from_pkl(latest_checkpoint(run_dir) / "replay_buffer.pkl")
+    stored = load_from_pkl(latest_replay(run_dir))
     transitions = stored.pos * stored.n_envs
     bigger = 2 * config.algo_params.buffer_size
     resume(run_dir, quiet=True, episodes=3, overrides=["algo.exploration_final_eps=0.5", f"algo.buffer_size={bigger}"])
@@ -94,7 +94,7 @@ def test_resume_with_a_changed_schedule_grows_the_replay_buffer_and_logs_the_cha
     assert saved.algo_params.exploration_final_eps == 0.5 and saved.algo_params.buffer_size == bigger
     model = RelmogenDQN.load(latest_checkpoint(run_dir) / "model.zip")
     assert model.exploration_final_eps == 0.5
-    grown = load_from_pkl(latest_checkpoint(run_dir) / "replay_buffer.pkl")
+    grown = load_from_pkl(latest_replay(run_dir))
     assert grown.buffer_size * grown.n_envs == bigger and grown.pos * grown.n_envs > transitions
     assert np.array_equal(grown.rewards[: stored.pos], stored.rewards[: stored.pos])  # the old ones, first
     log = read_resume_log(run_dir)
@@ -128,14 +128,14 @@ def test_kept_demonstrations_outlive_a_full_ring_and_a_resume(tmp_path):
                             overrides=["algo.demo_episodes=2", "algo.demo_keep=true", "algo.demo_margin_weight=1",
                                        "algo.buffer_size=40", "algo.n_step_returns=3"])
     run_dir = train(config, tmp_path, quiet=True)  # about 20 demonstration rows and 30 policy rows in 40
-    buffer = pickle.loads((latest_checkpoint(run_dir) / "replay_buffer.pkl").read_bytes())
+    buffer = pickle.loads((latest_replay(run_dir)).read_bytes())
     demo_rows = int(buffer.demo.sum())
     assert buffer.full and buffer.keep_demonstrations and demo_rows >= 2
     assert buffer.n_step_returns == 3  # set by the algorithm before its first sample
     assert buffer.demo[:demo_rows].all()  # the first rows, never overwritten
     kept = buffer.actions[:demo_rows].copy()
     resume(run_dir, quiet=True, episodes=5)
-    buffer = pickle.loads((latest_checkpoint(run_dir) / "replay_buffer.pkl").read_bytes())
+    buffer = pickle.loads((latest_replay(run_dir)).read_bytes())
     np.testing.assert_array_equal(buffer.actions[:demo_rows], kept)
     assert int(buffer.demo.sum()) == demo_rows
 
@@ -182,23 +182,50 @@ def test_resuming_an_older_episode_log_keeps_its_rows_and_adds_the_new_columns(t
     assert [(r["episode"], r["return"], r["base_fraction"]) for r in rows] == [("1", "0.5", ""), ("2", "0.7", "")]
 
 
+def kill_9_when(cmd: list[str], out: Path, ready, timeout_s: float = 240) -> Path:
+    """Start a training command, SIGKILL it as soon as ``ready(run_dir)``; returns the run dir."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+    deadline = time.time() + timeout_s
+    try:
+        while time.time() < deadline:
+            runs = list(out.glob("PointNav__*"))
+            if runs and ready(runs[0]):
+                return runs[0]
+            time.sleep(0.05)
+        raise AssertionError("the run never reached the state to kill it in")
+    finally:
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+
+
 def test_resume_after_kill_9_loses_at_most_one_checkpoint_interval(tmp_path):
     cmd = [sys.executable, "-m", "relmogen.cli", "train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny",
            "--episodes", "1000", "--out", str(tmp_path), "--quiet", "--set", "run.eval_every_episodes=1000"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 240
-    run_dir = None
-    while time.time() < deadline:
-        runs = list(tmp_path.glob("PointNav__sac__*"))
-        if runs and latest_checkpoint(runs[0]) is not None and len(episodes_in(runs[0])) >= 4:
-            run_dir = runs[0]
-            break
-        time.sleep(0.2)
-    assert run_dir is not None, "no checkpoint appeared"
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    run_dir = kill_9_when(cmd, tmp_path, lambda run: latest_checkpoint(run) is not None and len(episodes_in(run)) >= 4)
     saved = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())["episodes"]
     logged = len(episodes_in(run_dir))
     assert logged - saved <= 1  # checkpoint every episode in the tiny preset
     resume(run_dir, quiet=True, episodes=saved + 3)
     assert episodes_in(run_dir) == list(range(1, saved + 4))
+
+
+def test_kill_9_between_replay_saves_keeps_the_newer_model_and_the_older_replay(tmp_path):
+    cmd = [sys.executable, "-m", "relmogen.cli", "train", "--task", "PointNav", "--algo", "relmogen-r", "--preset",
+           "tiny", "--episodes", "1000", "--out", str(tmp_path), "--quiet", "--set", "run.eval_every_episodes=1000",
+           "--set", "run.replay_every_episodes=3", "--set", "algo.buffer_size=1000"]
+    def between_replay_saves(run: Path) -> bool:
+        checkpoint = latest_checkpoint(run)
+        return checkpoint is not None and json.loads((checkpoint / "state.json").read_text())["episodes"] in (4, 5)
+
+    run_dir = kill_9_when(cmd, tmp_path, between_replay_saves)
+    model_state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
+    replay_state = json.loads((latest_replay(run_dir).parent / "state.json").read_text())
+    assert replay_state["episodes"] == 3 < model_state["episodes"]
+    assert len(episodes_in(run_dir)) - model_state["episodes"] <= 1  # the model: one checkpoint interval
+    replay = load_from_pkl(latest_replay(run_dir))
+    # the replay: everything up to its own save (SB3 stores a step's transition after the callback
+    # that saved it, so the saving step's own transition is not in it)
+    assert replay.size() == replay_state["timesteps"] - 1
+    assert replay.observations["depth"].dtype == np.float16 and replay.observations["rgb"].dtype == np.uint8
+    resume(run_dir, quiet=True, episodes=model_state["episodes"] + 1)
+    assert episodes_in(run_dir) == list(range(1, model_state["episodes"] + 2))

@@ -138,3 +138,30 @@ def test_extend_fn_rotates_drives_rotates():
     assert np.isclose(path[-1, 2], np.pi) or np.isclose(path[-1, 2], -np.pi)
     distance = base_distance_fn()(np.zeros(3), np.array([0.0, 1.0, np.pi]))
     assert distance == pytest.approx(1.0 + np.pi / 2 + np.pi / 2)
+
+
+@pytest.mark.parametrize("backend", ["rrt_connect", "lazy_prm"])
+def test_nearest_free_drives_a_goal_in_the_wall_back_to_the_free_pose_in_front_of_it(backend):
+    local_map = doorway_map(wall_x=1.5, gap_centre_y=2.0, gap=0.5)  # the wall is closed in front of the robot
+    goal = np.array([1.5, 0.0, 0.7])
+    assert plan_base(local_map, goal, backend, rng=0).reason == "goal in collision"
+    result = plan_base(local_map, goal, backend, rng=0, goal_mode="nearest_free")
+    end = result.path_world[-1]
+    stop_x = 1.5 - 0.05 - FETCH_FOOTPRINT_RADIUS  # the wall's near face minus the footprint
+    assert result.success and result.reason.startswith("goal in collision, moved")
+    driven = float(np.hypot(*(end[:2] - np.array(ROBOT_POSE[:2]))))  # straight along the robot's x axis
+    assert stop_x - 2 * BASE_STEP_M <= driven <= stop_x + BASE_STEP_M  # clearance is read per 0.05 m cell
+    assert abs(wrap_angle(end[2] - ROBOT_POSE[2] - 0.7)) < TOL
+
+
+def test_nearest_free_with_the_line_blocked_beyond_the_blind_zone_stays_in_it():
+    grid = np.full((100, 100), UNKNOWN, dtype=np.uint8)
+    result = plan_base(LocalMap(grid, 0.05, ROBOT_POSE), np.array([1.0, 0.0, 1.0]), "rrt_connect", rng=0,
+                       goal_mode="nearest_free")
+    # only the robot's own blind zone is free: it may move within it, never beyond
+    assert result.success and result.path_length_m <= FETCH_FOOTPRINT_RADIUS + 0.3
+
+
+def test_an_unknown_goal_mode_is_refused():
+    with pytest.raises(ValueError, match="goal_mode"):
+        plan_base(empty_map(), np.array([1.0, 0.0, 0.0]), "rrt_connect", goal_mode="loose")
