@@ -124,53 +124,68 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
     """One ``relmogen train`` run of relmogen-r (trainer and environment workers as training
     makes them) for about ``subgoals`` subgoals past the preset's ``learning_starts``. CPU time
     (psutil, the process tree) and the trainer's wall-clock shares are counted from the first
-    gradient update, so the figures describe the steady state of a long run."""
+    gradient update to the end of learning, so they describe the steady state of a long run."""
     import tempfile
     from pathlib import Path
 
     from relmogen.experiments import train as training
 
-    config = resolve_config(task, "relmogen-r", preset=preset, episodes=10**6,
-                            overrides=["run.eval_every_episodes=1000000"])
-    config = config.model_copy(update={"episodes": -(-(config.algo_params.learning_starts + subgoals) // 25)})
+    config = _bench_run_config(task, preset, subgoals)
     with tempfile.TemporaryDirectory(dir=out) as folder:
         run_dir = training.new_run_dir(Path(folder), config)
-        env = training.make_training_env(config)
-        model = training.build_model(config, env)
-        watch, marks = _Stopwatch(), {}
-        first_train = model.train
-
-        def train_and_mark(*args, **kwargs):
-            if "start" not in marks:
-                marks["start"] = (training.process_tree_cpu_seconds(), time.perf_counter(), model.num_timesteps)
-                watch.seconds.clear()  # the shares count from the first update, as the CPU time does
-            return first_train(*args, **kwargs)
-
-        model.train = watch.wrap("update", train_and_mark)
-        model.env.step = watch.wrap("environment", model.env.step)
-        original_monitor = training.TrainingMonitor
-
-        class TimedMonitor(original_monitor):
-            def checkpoint(self, with_replay: bool = True) -> None:
-                watch.wrap("checkpoint", super().checkpoint)(with_replay)
-
-        training.TrainingMonitor = TimedMonitor
+        model = training.build_model(config, training.make_training_env(config))
+        watch, marks, monitor = _Stopwatch(), {}, training.TrainingMonitor
+        _time_the_run(model, training, watch, marks)
         try:
             training._learn(run_dir, config, model, {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, quiet=True)
         finally:
-            training.TrainingMonitor = original_monitor
-        cpu_end, wall_end = training.process_tree_cpu_seconds(), time.perf_counter()
+            training.TrainingMonitor = monitor
         episodes = _episodes_after(run_dir / "episodes.csv", marks["start"][2])
-    cpu_start, wall_start, steps_start = marks["start"]
-    cpu, wall, steps = cpu_end - cpu_start, wall_end - wall_start, model.num_timesteps - steps_start
+    (cpu_start, wall_start, steps_start), (cpu_end, wall_end, steps_end, seconds) = marks["start"], marks["end"]
+    cpu, wall, steps = cpu_end - cpu_start, wall_end - wall_start, steps_end - steps_start
     return {
         "task": task, "algo": "relmogen-r", "preset": preset, "n_envs": config.env.n_envs,
         "subgoals_timed": int(steps), "episodes_timed": episodes, "cpu_s": round(cpu, 2), "wall_s": round(wall, 2),
         "subgoals_per_cpu_s": round(steps / cpu, 3),
         "episodes_per_cpu_hour": round(episodes / cpu * 3600, 1),
         "episodes_per_cpu_hour_at_25_subgoals": round(steps / 25 / cpu * 3600, 1),
-        "time_shares": {name: round(seconds / wall, 3) for name, seconds in watch.seconds.items()},
+        "time_shares": {name: round(value / wall, 3) for name, value in seconds.items()},
     }
+
+
+def _bench_run_config(task: str, preset: str, subgoals: int):
+    from relmogen.tasks import task_class
+
+    config = resolve_config(task, "relmogen-r", preset=preset, episodes=1,
+                            overrides=["run.eval_every_episodes=1000000"])
+    length = config.env.episode_steps or task_class(task).subgoal_steps  # random policies rarely end early
+    return config.model_copy(update={"episodes": -(-(config.algo_params.learning_starts + subgoals) // length)})
+
+
+def _time_the_run(model, training, watch: _Stopwatch, marks: dict) -> None:
+    """Time updates, environment steps and checkpoints; mark CPU, wall time and subgoals at the
+    first update (``start``) and at the end of learning, before the workers are closed (``end``)."""
+    def now(steps: int) -> tuple[float, float, int]:
+        return training.process_tree_cpu_seconds(), time.perf_counter(), steps
+
+    class TimedModel(type(model)):  # a class swap, not an attribute: checkpoints pickle attributes
+        def train(self, *args, **kwargs):
+            if "start" not in marks:
+                marks["start"] = now(self.num_timesteps)
+                watch.seconds.clear()
+            return watch.wrap("update", super().train)(*args, **kwargs)
+
+    class TimedMonitor(training.TrainingMonitor):
+        def checkpoint(self, with_replay: bool = True) -> None:
+            watch.wrap("checkpoint", super().checkpoint)(with_replay)
+
+        def _on_training_end(self) -> None:
+            marks["end"] = (*now(self.model.num_timesteps), dict(watch.seconds))
+            super()._on_training_end()
+
+    model.__class__ = TimedModel
+    model.env.step = watch.wrap("environment", model.env.step)
+    training.TrainingMonitor = TimedMonitor
 
 
 def _episodes_after(episodes_csv, timesteps: int) -> int:

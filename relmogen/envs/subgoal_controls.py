@@ -29,6 +29,10 @@
 
 Rewards are the sum of the low-level (0.1 s) rewards accrued while the subgoal executed.
 When no plan is found the step is a no-op: nothing moves, the reward is 0, and it counts.
+``noop_cost`` > 0 (ours, off by default) adds the reward term ``no_op`` = -cost to a subgoal
+that executed nothing: no plan, or a base plan stopped before its first waypoint. A no-op
+leaves the observation unchanged, so a deterministic policy that chose one repeats it; the
+cost teaches the critic that it loses the step.
 """
 
 from __future__ import annotations
@@ -96,14 +100,21 @@ def within_arm_reach(env: RelmogenEnv, points) -> np.ndarray:
     return arm_base_distance(env, points) <= env.robot.spec.arm_reach
 
 
+def executed_nothing(result: SubgoalResult) -> bool:
+    """No plan, or a plan stopped before its first waypoint (no simulated time passed)."""
+    return not result.success or result.sim_time_s <= 0.0
+
+
 class SubgoalControl(Control):
     """Shared execution of base and arm subgoals; subclasses decode actions."""
 
     name = "subgoal"
 
     def __init__(self, env: RelmogenEnv, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
-                 arm_collision: bool = True, base_goal: str = "strict"):
-        self.env = env
+                 arm_collision: bool = True, base_goal: str = "strict", noop_cost: float = 0.0):
+        if not (np.isfinite(noop_cost) and noop_cost >= 0):
+            raise ValueError(f"noop_cost must be a finite number >= 0, got {noop_cost!r}")
+        self.env, self.noop_cost = env, float(noop_cost)
         self.episode_steps = env.task.subgoal_steps
         self.parts = env.task.subgoal_parts
         config = MotionGeneratorConfig(base_planner=base_planner, arm_planner=arm_planner,
@@ -163,6 +174,9 @@ class SubgoalControl(Control):
         task = self.env.task
         termination = "success" if task.terminates_on_success() and task.is_success() else None
         info = dict(result.as_info(), **extra)
+        if self.noop_cost and executed_nothing(result):
+            rewards.total -= self.noop_cost
+            rewards.terms["no_op"] = rewards.terms.get("no_op", 0.0) - self.noop_cost
         return StepOutcome(rewards.total, termination, rewards.terms, info)
 
 

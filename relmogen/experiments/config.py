@@ -35,6 +35,7 @@ class EnvConfig(_Strict):
     # a base subgoal whose goal pose is in collision: "strict" is a no-op (the paper's),
     # "nearest_free" drives to the nearest free pose toward it (ours; base_planner.py)
     base_goal: Literal["strict", "nearest_free"] = "strict"
+    noop_cost: float = Field(0.0, ge=0)  # subgoal controls: reward -cost for a subgoal that executed nothing (ours)
 
 
 class AlgoConfig(_Strict):

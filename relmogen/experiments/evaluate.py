@@ -84,7 +84,7 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if config.control != "joint":
         settings.update(base_planner=base_planner or config.env.base_planner,
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
-                        base_goal=config.env.base_goal)
+                        base_goal=config.env.base_goal, noop_cost=config.env.noop_cost)
     result = {**settings, **aggregate(records)}
     if agreement is not None:
         result["oracle_agreement"] = float(np.mean(agreement.matches))

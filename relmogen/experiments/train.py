@@ -62,7 +62,7 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
     if config.control != "joint":
         kwargs.update(base_planner=base_planner or config.env.base_planner,
                       arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
-                      base_goal=config.env.base_goal)
+                      base_goal=config.env.base_goal, noop_cost=config.env.noop_cost)
     if config.control == "subgoal-d":
         kwargs["push_frame"] = config.env.push_frame
     return kwargs

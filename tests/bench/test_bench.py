@@ -113,3 +113,16 @@ def test_train_bench_reports_sgpd_replay_memory():
     # tiny preset: 64 px, buffer of 200 transitions; per 1e4 it is the same figure scaled up
     per_1e4, at_size = result["replay_gib_per_1e4_transitions"], result["replay_gib_at_preset_size"]
     assert per_1e4 == pytest.approx(at_size * 1e4 / 200, rel=0.02) and 0.1 < per_1e4 < 1.0
+
+
+def test_the_training_run_bench_counts_cpu_and_time_shares_from_the_first_update(tmp_path):
+    from relmogen.bench.train_bench import bench_training_run
+
+    result = bench_training_run("PointNav", preset="tiny", subgoals=30, out=str(tmp_path))
+    assert result["subgoals_timed"] >= 10 and result["episodes_timed"] >= 1
+    assert result["cpu_s"] > 0 and result["wall_s"] > 0
+    assert result["episodes_per_cpu_hour"] == pytest.approx(result["episodes_timed"] / result["cpu_s"] * 3600, rel=1e-3)
+    assert result["subgoals_per_cpu_s"] == pytest.approx(result["subgoals_timed"] / result["cpu_s"], rel=1e-3)
+    shares = result["time_shares"]
+    assert {"update", "environment", "checkpoint"} <= set(shares) and 0 < sum(shares.values()) <= 1.0
+    assert list(tmp_path.iterdir()) == []  # the run folder is temporary

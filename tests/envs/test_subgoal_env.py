@@ -300,3 +300,79 @@ def test_surface_frame_pushes_go_into_steep_surfaces_and_never_the_floor():
 def test_unknown_push_frame_is_refused():
     with pytest.raises(ValueError, match="unknown push_frame 'tool'"):
         RelmogenEnv(task="PointNav", control="subgoal-d", image_size=64, push_frame="tool")
+
+
+
+@pytest.mark.parametrize("control", ["subgoal-r", "subgoal-d"])
+def test_arm_subgoal_beyond_reach_is_a_no_op_without_ik(monkeypatch, control):
+    """A pixel seeing a point farther than ``arm_reach`` from the arm's base fails at once, with
+    the distance in the reason, and never reaches IK or the planner; a reachable one does."""
+    from relmogen.envs.subgoal_controls import arm_base_distance
+    from relmogen.motion_generation.generator import MotionGenerator
+    from relmogen.motion_generation.ik import ArmIK
+
+    env = RelmogenEnv(task="ButtonDoorNav", control=control, image_size=64, arm_collision=False)
+    env.reset(seed=1)  # a corridor view: the far wall is out of reach
+    monkeypatch.setattr(ArmIK, "solve", lambda *a, **k: pytest.fail("IK called"))
+    monkeypatch.setattr(MotionGenerator, "reach_and_push", lambda *a, **k: pytest.fail("MG called"))
+    frame, reach = env.last_frame, env.robot.spec.arm_reach
+    rows, cols = np.meshgrid(4 * np.arange(16) + 2, 4 * np.arange(16) + 2, indexing="ij")  # SGP-D's cell pixels
+    points, has_depth = env.camera.pixels_to_world(frame, cols, rows)
+    distance = arm_base_distance(env, points)
+
+    def arm_action(i, j):
+        if control == "subgoal-d":
+            return env.control.encode("arm", 0, int(i), int(j))
+        return np.array([-1, 0, 0, 0, 2 * (rows[i, j] + 0.5) / 64 - 1, 2 * (cols[i, j] + 0.5) / 64 - 1, 0.5, 0],
+                        dtype=np.float32)
+
+    far = np.argwhere(has_depth & (distance > reach + 0.2))
+    near = np.argwhere(has_depth & (distance < reach - 0.3))
+    assert len(far) and len(near), "expected pixels both beyond and within reach in this view"
+    i, j = far[len(far) // 2]
+    before = world_snapshot(env)
+    _, _, _, _, info = env.step(arm_action(i, j))
+    assert info["subgoal_type"] == "arm" and not info["plan_found"] and info["sim_time_s"] == 0.0
+    assert info["reason"] == f"point {distance[i, j]:.2f} m from the arm base, beyond its reach of {reach:.2f} m"
+    np.testing.assert_allclose(world_snapshot(env), before, atol=1e-9)
+    with pytest.raises(pytest.fail.Exception, match="MG called"):  # the same rule lets a reachable pixel through
+        env.step(arm_action(*near[0]))
+    env.close()
+
+
+def test_noop_cost_charges_a_subgoal_that_executed_nothing_and_nothing_else():
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64, noop_cost=0.25)
+    env.reset(seed=0)
+    charged = []
+    for angle in np.linspace(-110, 110, 12):  # some of these 2 m goals are in walls (strict: no plan)
+        _, reward, _, _, info = env.step(base_action(angle, 2.0))
+        no_op = not info["plan_found"] or info["sim_time_s"] == 0.0
+        assert info["reward_terms"].get("no_op", 0.0) == (-0.25 if no_op else 0.0)
+        charged.append(no_op)
+    assert any(charged) and not all(charged)
+    _, _, _, _, info = env.step(base_action(distance=0.0, yaw=0.0))  # a rotation by nothing moves nothing
+    assert info["plan_found"] and info["reward_terms"]["no_op"] == -0.25
+    env.close()
+    with pytest.raises(ValueError, match="noop_cost"):
+        RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64, noop_cost=-1.0)
+
+
+def test_nearest_free_base_goals_plan_where_strict_ones_find_none():
+    strict = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64)
+    loose = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64, base_goal="nearest_free")
+    strict.reset(seed=0)
+    loose.reset(seed=0)
+    moved_back = 0
+    for angle in np.linspace(-110, 110, 12):
+        _, _, _, _, info = strict.step(base_action(angle, 2.0))
+        if info["reason"] == "goal in collision":
+            strict_pose = strict.robot.base_pose()
+            _, _, _, _, loose_info = loose.step(base_action(angle, 2.0))
+            assert loose_info["plan_found"] and loose_info["reason"].startswith("goal in collision, moved")
+            moved_back += 1
+            loose.robot.set_base_pose(*strict_pose)  # both continue from the same pose
+        else:
+            loose.robot.set_base_pose(*strict.robot.base_pose())
+    assert moved_back
+    strict.close()
+    loose.close()
