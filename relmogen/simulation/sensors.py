@@ -23,7 +23,9 @@ import pybullet as p
 INVALID_DEPTH = 0.0
 _NEAR_PLANE = 0.05
 _FAR_PLANE = 10.0
-_RENDER_ATTEMPTS = 3
+# Eye shifts (camera frame: forward, left, up; metres) tried in turn when TinyRenderer returns an
+# all-NaN z-buffer (and a black image) for a rare exact pose.
+_EYE_SHIFTS = ((0.0, 0.0, 0.0), (0.0, 0.0, 1e-3), (0.0, 0.0, 1e-2), (0.0, 1e-2, 0.0), (-1e-2, 0.0, 0.0))
 
 
 @dataclass(frozen=True)
@@ -92,27 +94,30 @@ class Camera:
         self.client = client
         self.intrinsics = CameraIntrinsics(width, height, fov_deg)
         self.min_depth, self.max_depth = min_depth, max_depth
+        self.blind_frames = 0
         self._projection = p.computeProjectionMatrixFOV(
             fov=fov_deg, aspect=width / height, nearVal=_NEAR_PLANE, farVal=_FAR_PLANE
         )
 
     def capture(self, position: np.ndarray, rotation: np.ndarray) -> CameraFrame:
+        """RGB-D from ``position`` looking along ``rotation``'s x axis. Pixels the renderer leaves
+        NaN at every eye shift read as no return; when every shift leaves the whole image NaN
+        (seen once in a PointNav training run, where it killed the run), the frame is blind: black,
+        with no return anywhere, and ``blind_frames`` counts it."""
         position = np.asarray(position, dtype=np.float64)
         best, best_nan = None, None
-        for attempt in range(_RENDER_ATTEMPTS):
-            # TinyRenderer returns an all-NaN z-buffer (and a black image) for rare exact
-            # poses; shifting the eye along its up axis (1 mm, then 1 cm) renders normally.
-            eye = position + (0.0, 1e-3, 1e-2)[attempt] * rotation[:, 2]
-            rgba, zbuffer = self._render(eye, rotation)
+        for shift in _EYE_SHIFTS:
+            rgba, zbuffer = self._render(position + np.asarray(rotation) @ np.asarray(shift), rotation)
             nan = np.isnan(zbuffer)
             if not nan.any():
                 return CameraFrame(rgba[..., :3], self._linearise(zbuffer), position, np.asarray(rotation))
             if not nan.all() and (best is None or nan.sum() < best_nan.sum()):
                 best, best_nan = (rgba, zbuffer), nan
         if best is None:
-            raise RuntimeError(f"the renderer returned NaN depth at camera position {position}")
-        # some pixels stayed NaN at every shift (seen once in 1e5 training steps, where it killed
-        # an environment worker): they read as no return rather than ending the run
+            self.blind_frames += 1
+            height, width = self.intrinsics.height, self.intrinsics.width
+            return CameraFrame(np.zeros((height, width, 3), np.uint8), np.full((height, width), INVALID_DEPTH,
+                                                                             np.float32), position, np.asarray(rotation))
         rgba, zbuffer = best
         depth = self._linearise(np.nan_to_num(zbuffer, nan=1.0))
         depth[best_nan.reshape(depth.shape)] = INVALID_DEPTH
