@@ -58,6 +58,12 @@ def shipped_policy_dir(name: str) -> Path:
     return folder
 
 
+def _is_input_scaling(key: str) -> bool:
+    """The encoder's input statistics (``InputScaling``): absent from actors exported before them,
+    which then load with the identity scaling they were trained with."""
+    return "_scaling." in key
+
+
 def open_shipped(folder: Path, arm_collision: bool = True, render_mode: str | None = None,
                  device: str = "cpu") -> tuple[RelmogenEnv, ShippedPolicy]:
     """The environment the policy was trained for (arm collision checking on, as at
@@ -72,11 +78,13 @@ def open_shipped(folder: Path, arm_collision: bool = True, render_mode: str | No
     model = build_model(small, DummyVecEnv([lambda: env]))
     state = th.load(folder / ACTOR_FILE, map_location=device, weights_only=True)
     reference = model.policy.actor.state_dict()
-    if set(state) != set(reference):
+    missing = {key for key in set(reference) - set(state) if not _is_input_scaling(key)}  # older exports
+    if missing or set(state) - set(reference):
         env.close()
         raise ValueError(f"{folder / ACTOR_FILE} does not match the network its config builds "
                          f"(missing {sorted(set(reference) - set(state))[:3]}, "
                          f"unexpected {sorted(set(state) - set(reference))[:3]})")
-    model.policy.actor.load_state_dict({key: value.to(reference[key].dtype) for key, value in state.items()})
+    model.policy.actor.load_state_dict({key: value.to(reference[key].dtype) for key, value in state.items()},
+                                       strict=False)
     provenance = json.loads((folder / PROVENANCE_FILE).read_text()) if (folder / PROVENANCE_FILE).is_file() else {}
     return env, ShippedPolicy(config, lambda obs: model.predict(obs, deterministic=True)[0], provenance)
