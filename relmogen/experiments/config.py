@@ -77,13 +77,15 @@ class RunSettings(_Strict):
     eval_every_episodes: int = Field(100, ge=1)
     eval_episodes: int = Field(10, ge=1)
     checkpoint_every_episodes: int = Field(20, ge=1)  # the model
-    replay_every_episodes: int = Field(20, ge=1)  # the replay buffer (at a model checkpoint: a multiple of it)
+    replay_every_episodes: int | None = Field(None, ge=1)  # the replay buffer: a multiple of the above; None = same
     # One learner thread: on a 2-core machine shared with the environment workers, two torch
     # threads made updates about 2.4x slower (measured under load).
     torch_threads: int = Field(1, ge=1)
 
     @model_validator(mode="after")
     def _replay_saved_with_a_model(self) -> RunSettings:
+        if self.replay_every_episodes is None:
+            self.replay_every_episodes = self.checkpoint_every_episodes
         if self.replay_every_episodes % self.checkpoint_every_episodes:
             raise ValueError(f"run.replay_every_episodes ({self.replay_every_episodes}) must be a multiple of "
                              f"run.checkpoint_every_episodes ({self.checkpoint_every_episodes})")
@@ -147,11 +149,48 @@ def available_presets() -> list[str]:
     return sorted(path.stem for path in PRESET_DIR.glob("*.yaml"))
 
 
-def load_preset(name: str) -> dict:
-    path = PRESET_DIR / f"{name}.yaml"
+PRESET_SECTIONS = ("env", "algos", "run")
+
+
+def is_preset_file(preset: str) -> bool:
+    """Whether ``preset`` names a YAML file (a ``.yaml``/``.yml`` suffix or a folder in it) rather
+    than a preset of ``relmogen/configs/presets``."""
+    return preset.endswith((".yaml", ".yml")) or len(Path(preset).parts) > 1
+
+
+def preset_path(preset: str) -> Path:
+    """The YAML file of a preset name or of a preset file path (made absolute)."""
+    if is_preset_file(preset):
+        path = Path(preset).expanduser().resolve()
+        if not path.is_file():
+            raise ValueError(f"preset file {preset} does not exist; give an existing YAML file or a preset name "
+                             f"({', '.join(available_presets())})")
+        return path
+    path = PRESET_DIR / f"{preset}.yaml"
     if not path.is_file():
-        raise ValueError(f"unknown preset {name!r}; valid presets: {', '.join(available_presets())}")
-    return yaml.safe_load(path.read_text())
+        raise ValueError(f"unknown preset {preset!r}; valid presets: {', '.join(available_presets())} "
+                         "(or the path of a YAML file)")
+    return path
+
+
+def recorded_preset(preset: str) -> str:
+    """How a run's ``config.yaml`` names its preset: the name, or the absolute path of its file."""
+    return str(preset_path(preset)) if is_preset_file(preset) else preset
+
+
+def load_preset(preset: str) -> dict:
+    """The sections of a preset, given by name or as a YAML file path (``is_preset_file``)."""
+    path = preset_path(preset)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as error:
+        raise ValueError(f"preset file {path} is not valid YAML: {error}") from error
+    data = {} if data is None else data
+    if not isinstance(data, dict) or set(data) - set(PRESET_SECTIONS):
+        found = sorted(data) if isinstance(data, dict) else type(data).__name__
+        raise ValueError(f"preset file {path} must be a mapping with the sections {', '.join(PRESET_SECTIONS)} "
+                         f"(see {PRESET_DIR / 'cpu.yaml'}); found {found}")
+    return data
 
 
 def _apply_override(tree: dict, assignment: str) -> None:
@@ -172,7 +211,8 @@ def resolve_config(task: str, algo: str, seed: int = 0, preset: str = "cpu", epi
         raise ValueError(f"unknown algorithm {algo!r}; valid algorithms: {', '.join(ALGOS)}")
     data = load_preset(preset)
     tree = {
-        "task": task, "algo": algo, "seed": seed, "preset": preset, "episodes": episodes, "device": device,
+        "task": task, "algo": algo, "seed": seed, "preset": recorded_preset(preset), "episodes": episodes,
+        "device": device,
         "max_hours": max_hours, "env": data.get("env", {}), "algo_params": data.get("algos", {}).get(algo, {}),
         "run": data.get("run", {}),
     }
