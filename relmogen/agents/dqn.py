@@ -1,4 +1,4 @@
-"""SGP-D: Double DQN over dense per-pixel Q maps (``relmogen-d``; facts sheet sections 5-6).
+"""SGP-D: masked Double DQN over dense per-pixel Q maps (``relmogen-d``; facts sheet sections 5-6).
 
 ``RelmogenDQN`` is SB3's ``DQN`` with
   * ``QMapDQNPolicy``: online and target nets are ``QMapNetwork`` (two conv branches, two
@@ -23,46 +23,22 @@ sub-environment from the step infos, or from the VecEnv's ``reset_infos`` after 
 of the used parts is allowed); ``env_policy(model, env)`` reads them from a single
 environment for evaluation.
 
-``QMapReplayBuffer`` stores depth as float16 (<= 3 m: step <= 2 mm) and the next state's
-masks; SB3's ``optimize_memory_usage`` is not available for Dict observations.
+``CellMaskReplayBuffer`` stores depth as float16 (<= 3 m: step <= 2 mm), and per transition
+the next state's masks and the masks its action was chosen under; SB3's
+``optimize_memory_usage`` is not available for Dict observations.
 
-Conservative term (``conservative_weight`` > 0; our addition, off by default): adds
-``weight * (logsumexp_a Q(s, a) - Q(s, a_taken))`` over the allowed actions of the stored
-state to the Huber loss (the discrete CQL(H) regulariser of Kumar et al., 2020). With ~3,000
-arm actions of which a replay has tried few, Double DQN targets still bootstrap from the
-untried ones; the term pushes those down and the taken ones up. The buffer therefore keeps
-each transition's own masks too (the masks the action was chosen under). On ButtonDoorNav it
-lowered the button further (``results/sgpd-cql``).
-
-Demonstration margin (``demo_margin_weight`` > 0; ours, off by default): DQfD's supervised
-large-margin term (Hester et al., 2018) on the batch's demonstration rows (``algo.demo_episodes``,
-``QMapReplayBuffer.demo``) makes the demonstrated action's Q exceed every other allowed action's
-by ``DQFD_MARGIN``: ``max_a [Q(s, a) + 0.8 [a != a_E]] - Q(s, a_E)``. The ``cpu`` preset's
-16 x 16 maps hold 3,072 arm actions, and a demonstrated press is one of them: the TD loss alone
-left the few demonstrated presses below their untried neighbours (``results/sgpd-demos``).
-
-Oracle labels (``oracle_labels``; ours, off by default, DAgger's idea with DQfD's loss): before
-each training step every environment is asked for its task oracle's choice in its current state
-(``env_method("oracle_label")``, answered by ``relmogen.agents.demonstrations.OracleLabels``).
-The policy still acts; the label goes into the replay with the transition and the margin term
-applies to it as to a demonstration's action. Demonstrations show the oracle's own states only;
-the labels cover the states the policy reaches by its own mistakes. ``rollout/oracle_agreement``
-logs how often the policy chose the label (last 1,000 transitions, exploration included).
-
-N-step returns (``n_step_returns`` = n > 1; off by default, DQfD and Rainbow use them): the
-target of a stored transition sums the discounted rewards of up to n consecutive stored steps of
-its environment and bootstraps with gamma^k from the k-th next state (k <= n, fewer at an episode
-end, at the newest row and where kept demonstration rows border policy rows). A +10 success
-reaches the press that made it possible in one update instead of n; and a subgoal that changes
-nothing, repeated (its next state is its own state), loses value gamma^n per target update
-instead of gamma. ``QMapReplayBuffer`` computes the windows at sampling time from the rows it
-already stores, as SB3's ``NStepReplayBuffer`` does (which does not take Dict observations).
+Optional research add-ons, all ours and off by default, live in ``relmogen/agents/addons/``
+(each module's docstring says what it adds, where it comes from and what measured it):
+``conservative_weight`` (CQL), ``demo_margin_weight`` (DQfD's margin), ``keep_demonstrations``
+(the replay's ``algo.demo_keep``), ``n_step_returns`` and ``oracle_labels`` (DAgger-style
+labels); ``env_policy(skip_no_ops=True)`` is a test-time rule. ``QMapReplayBuffer`` is
+``CellMaskReplayBuffer`` with the add-ons' replay mixins, and ``RelmogenDQN`` adds their loss
+terms to the Huber loss; with every add-on off it is the plain masked Double DQN.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -75,15 +51,18 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, is_vecenv_wr
 from stable_baselines3.dqn.policies import DQNPolicy
 from torch.nn import functional as F
 
+from relmogen.agents.addons import LossTerm
+from relmogen.agents.addons.conservative import conservative_term
+from relmogen.agents.addons.demonstration_margin import ExpertLabels, demonstration_margin_term
+from relmogen.agents.addons.kept_demonstrations import DemonstrationRows
+from relmogen.agents.addons.n_step import NStepReturns, use_n_step_returns
+from relmogen.agents.addons.oracle_labels import OracleLabeller
+from relmogen.agents.addons.skip_no_ops import NoOpMemory
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.agents.replay import CompactDictReplayBuffer, with_full_capacity
-from relmogen.envs.relmogen_env import VIEW_KEYS, view_unchanged
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
 ALL_PARTS = ("base", "arm")
-DQFD_MARGIN = 0.8  # the expert margin of DQfD (Hester et al., 2018)
-LABEL_AGREEMENT_WINDOW = 1000  # policy transitions behind ``rollout/oracle_agreement``
-ORACLE_LABEL_METHOD = "oracle_label"  # what ``oracle_labels`` calls on every training environment
 MASK_KEYS = ("base_mask", "arm_mask")  # info keys of the (Q, Q) cell masks, in channel order
 
 
@@ -173,34 +152,6 @@ class CellMaskTracker(VecEnvWrapper):
         return observations, rewards, dones, infos
 
 
-class NoOpMemory:
-    """The test-time rule of ``relmogen eval --skip-no-ops`` (ours; never used in training).
-
-    A deterministic SGP-D policy whose subgoal changed nothing it sees gets the same observation
-    back and chooses the same subgoal until the episode ends. With this rule a subgoal after
-    which the view was unchanged (``view_unchanged``) is excluded until the view changes, so the
-    policy falls back to its next best subgoal. Call ``clear`` at every episode start.
-    """
-
-    def __init__(self):
-        self.clear()
-
-    def clear(self) -> None:
-        self.previous: tuple[dict, int] | None = None
-        self.excluded: list[int] = []
-
-    def excluded_now(self, obs: dict) -> list[int]:
-        """The actions to exclude in ``obs``, given the previous observation and action."""
-        if self.previous is not None and view_unchanged(self.previous[0], obs):
-            self.excluded.append(self.previous[1])
-        else:
-            self.excluded = []
-        return self.excluded
-
-    def chose(self, obs: dict, action: int) -> None:
-        self.previous = ({key: np.array(obs[key]) for key in VIEW_KEYS if key in obs}, int(action))
-
-
 def env_policy(model: RelmogenDQN, env, deterministic: bool = True, skip_no_ops: bool = False):
     """``obs -> action`` for a single (unvectorised) ``RelmogenEnv``, masked with its current
     cell masks (read from ``env.unwrapped.control``), e.g. for ``rollout.run_episodes``.
@@ -276,117 +227,6 @@ class QMapReplaySamples(NamedTuple):
     labels: th.Tensor | None = None  # (B,) long: the expert's action for the margin term, -1 for none
 
 
-class QMapReplayBuffer(CompactDictReplayBuffer):
-    """``CompactDictReplayBuffer`` (float16 ``depth``) with the state's and next state's cell masks per
-    transition. ``masks`` rows are the masks the action was chosen under (``acting_masks``, set
-    by ``RelmogenDQN._store_transition`` before each ``add``); rows added without them allow every cell.
-
-    Rows added while ``adding_demonstrations`` is set are marked in ``demo``. With
-    ``keep_demonstrations`` the ring skips them, so they stay for the whole run (DQfD keeps its
-    demonstrations the same way; ours, off by default).
-
-    ``labels`` (rows, n_envs) holds each transition's expert action for the margin term, -1 for
-    none: a demonstration's own action, or the oracle's label of a policy state
-    (``acting_labels``, set like ``acting_masks``; ``algo.oracle_labels``).
-
-    With ``n_step_returns`` > 1 samples carry n-step rewards and their ``discounts`` (module doc);
-    ``RelmogenDQN`` sets it and ``gamma`` before sampling."""
-
-    def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Discrete,
-                 *args: Any, keep_demonstrations: bool = False, **kwargs: Any):
-        super().__init__(buffer_size, observation_space, action_space, *args, **kwargs)
-        self.keep_demonstrations = bool(keep_demonstrations)
-        self.n_step_returns, self.gamma = 1, 0.99
-        self.adding_demonstrations = False
-        self.acting_masks = self.acting_labels = None
-        self.demo = np.zeros(self.buffer_size, dtype=bool)
-        self.labels = np.full((self.buffer_size, self.n_envs), -1, dtype=np.int64)
-        q = map_side(int(action_space.n))
-        self.next_masks = np.ones((self.buffer_size, self.n_envs, len(MASK_KEYS), q, q), dtype=bool)
-        self.masks = np.ones_like(self.next_masks)
-
-    def __setstate__(self, state: dict) -> None:
-        """Older buffers load too: without arm masks their arm cells are allowed; without the
-        state's own masks they are taken from the previous transition's next masks."""
-        state = with_full_capacity(state)
-        if "next_base_masks" in state:
-            base = state.pop("next_base_masks")
-            state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
-        state = {"keep_demonstrations": False, "adding_demonstrations": False, "acting_masks": None,
-                 "acting_labels": None, "n_step_returns": 1, "gamma": 0.99, **state}
-        self.__dict__.update(state)
-        if "masks" not in state:
-            self.masks = masks_before(self.next_masks, self.dones, self.pos, self.full)
-        if "demo" not in state:
-            self.demo = np.zeros(self.buffer_size, dtype=bool)
-        if "labels" not in state:  # demonstrations were labelled by their own action
-            self.labels = np.where(self.demo[:, None], self.actions[..., 0], -1).astype(np.int64)
-
-    def add(self, obs, next_obs, action, reward, done, infos) -> None:
-        if self.keep_demonstrations:
-            self._skip_demonstration_rows()
-        self.masks[self.pos] = True if self.acting_masks is None else self.acting_masks
-        self.acting_masks = None
-        self.next_masks[self.pos] = masks_from_infos(infos, self.next_masks.shape[-1])
-        self.demo[self.pos] = self.adding_demonstrations
-        self.labels[self.pos] = self._labels_of(action)
-        super().add(obs, next_obs, action, reward, done, infos)
-
-    def _labels_of(self, action) -> np.ndarray:
-        """The expert actions of the row being added: its own for demonstrations, else ``acting_labels``."""
-        labels = np.asarray(action).reshape(self.n_envs) if self.adding_demonstrations else self.acting_labels
-        self.acting_labels = None
-        return -1 if labels is None else labels
-
-    def _skip_demonstration_rows(self) -> None:
-        """Move ``pos`` past kept demonstration rows (wrapping round as SB3's ``add`` does)."""
-        for _ in range(self.buffer_size):
-            if not self.demo[self.pos]:
-                return
-            self.pos = (self.pos + 1) % self.buffer_size
-            self.full = self.full or self.pos == 0
-        raise ValueError(f"demonstrations fill all {self.buffer_size} rows of the replay buffer: raise "
-                         "algo.buffer_size or lower algo.demo_episodes")
-
-    def nbytes(self) -> int:
-        """Bytes held by the stored arrays."""
-        extras = [self.next_masks, self.masks, self.demo, self.labels]
-        return super().nbytes() + int(sum(array.nbytes for array in extras))
-
-    def _get_samples(self, batch_inds: np.ndarray, env=None) -> QMapReplaySamples:
-        envs = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
-        rows = self.n_step_rows(batch_inds, envs)  # (B, n): the steps each target sums, rows[:, 0] = batch_inds
-        steps = (rows >= 0).sum(axis=1)
-        last = rows[np.arange(len(rows)), steps - 1]
-        weights = np.where(rows >= 0, self.gamma ** np.arange(rows.shape[1], dtype=np.float32), 0.0)
-        rewards = (self._normalize_reward(self.rewards[rows, envs[:, None]], env) * weights).sum(axis=1)
-        discounts = (None if self.n_step_returns == 1  # one-step samples: the algorithm's gamma applies
-                     else self.to_torch((self.gamma ** steps).astype(np.float32)).reshape(-1, 1))
-        dones = self.dones[last, envs] * (1 - self.timeouts[last, envs])
-        return QMapReplaySamples(
-            observations=self._batch(self.observations, batch_inds, envs, env),
-            actions=self.to_torch(self.actions[batch_inds, envs]),
-            next_observations=self._batch(self.next_observations, last, envs, env),
-            dones=self.to_torch(dones).reshape(-1, 1),
-            rewards=self.to_torch(rewards.astype(np.float32)).reshape(-1, 1),
-            discounts=discounts,
-            next_masks=self.to_torch(self.next_masks[last, envs]),
-            masks=self.to_torch(self.masks[batch_inds, envs]),
-            labels=self.to_torch(self.labels[batch_inds, envs]),
-        )
-
-    def n_step_rows(self, batch_inds: np.ndarray, envs: np.ndarray) -> np.ndarray:
-        """(B, n) rows of the up to ``n_step_returns`` consecutive steps starting at each sampled row,
-        -1 past the window's end: the environment's episode end (terminal or time limit), the newest
-        row (the next one is older), or a row whose ``demo`` flag differs (the ring skipped kept
-        demonstrations there)."""
-        rows = (batch_inds[:, None] + np.arange(self.n_step_returns)) % self.buffer_size
-        last_step = self.dones[rows, envs[:, None]].astype(bool) | (rows == (self.pos - 1) % self.buffer_size)
-        last_step[:, :-1] |= self.demo[rows[:, 1:]] != self.demo[rows[:, :-1]]
-        after_end = np.cumsum(last_step, axis=1) - last_step > 0
-        return np.where(after_end, -1, rows)
-
-
 def masks_before(next_masks: np.ndarray, dones: np.ndarray, pos: int, full: bool) -> np.ndarray:
     """Each row's own masks rebuilt from the previous row's next masks (rows are consecutive
     steps of each environment); after an episode end, and for the oldest row, every cell."""
@@ -396,9 +236,87 @@ def masks_before(next_masks: np.ndarray, dones: np.ndarray, pos: int, full: bool
     return np.where(known[:, :, None, None, None], previous, True)
 
 
+class CellMaskReplayBuffer(CompactDictReplayBuffer):
+    """``CompactDictReplayBuffer`` (float16 ``depth``) with each transition's cell masks:
+    ``next_masks``, the next state's, which the Double DQN target's argmax obeys, and ``masks``,
+    the ones its action was chosen under (``acting_masks``, set by ``RelmogenDQN._store_transition``
+    before each ``add``; rows added without them allow every cell).
+
+    Replay mixins (``relmogen/agents/addons``) go in front of it and extend ``add``,
+    ``upgraded_state`` (what an older pickle lacks), ``returns`` (what a target sums and where it
+    bootstraps) and ``samples_at``."""
+
+    def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Discrete,
+                 *args: Any, **kwargs: Any):
+        super().__init__(buffer_size, observation_space, action_space, *args, **kwargs)
+        self.acting_masks = None
+        q = map_side(int(action_space.n))
+        self.next_masks = np.ones((self.buffer_size, self.n_envs, len(MASK_KEYS), q, q), dtype=bool)
+        self.masks = np.ones_like(self.next_masks)
+
+    def __setstate__(self, state: dict) -> None:
+        super().__setstate__(self.upgraded_state(with_full_capacity(state)))
+
+    def upgraded_state(self, state: dict) -> dict:
+        """Older buffers load too: without arm masks their arm cells are allowed; without the
+        state's own masks they are taken from the previous transition's next masks."""
+        state = {"acting_masks": None, **state}
+        if "next_base_masks" in state:
+            base = state.pop("next_base_masks")
+            state["next_masks"] = np.stack([base, np.ones_like(base)], axis=2)
+        if "masks" not in state:
+            state["masks"] = masks_before(state["next_masks"], state["dones"], state["pos"], state["full"])
+        return state
+
+    def add(self, obs, next_obs, action, reward, done, infos) -> None:
+        self.masks[self.pos] = True if self.acting_masks is None else self.acting_masks
+        self.acting_masks = None
+        self.next_masks[self.pos] = masks_from_infos(infos, self.next_masks.shape[-1])
+        super().add(obs, next_obs, action, reward, done, infos)
+
+    def nbytes(self) -> int:
+        """Bytes held by the stored arrays."""
+        return super().nbytes() + self.next_masks.nbytes + self.masks.nbytes
+
+    def _get_samples(self, batch_inds: np.ndarray, env=None) -> QMapReplaySamples:
+        envs = np.random.randint(0, high=self.n_envs, size=(len(batch_inds),))
+        return self.samples_at(batch_inds, envs, env)
+
+    def samples_at(self, batch_inds: np.ndarray, envs: np.ndarray, env=None) -> QMapReplaySamples:
+        """The transitions of environments ``envs`` at rows ``batch_inds``; each target's rewards,
+        discount and bootstrap row come from ``returns``."""
+        rewards, discounts, last = self.returns(batch_inds, envs, env)
+        dones = self.dones[last, envs] * (1 - self.timeouts[last, envs])
+        return QMapReplaySamples(
+            observations=self._batch(self.observations, batch_inds, envs, env),
+            actions=self.to_torch(self.actions[batch_inds, envs]),
+            next_observations=self._batch(self.next_observations, last, envs, env),
+            dones=self.to_torch(dones).reshape(-1, 1),
+            rewards=self.to_torch(rewards).reshape(-1, 1),
+            discounts=None if discounts is None else self.to_torch(discounts).reshape(-1, 1),
+            next_masks=self.to_torch(self.next_masks[last, envs]),
+            masks=self.to_torch(self.masks[batch_inds, envs]),
+        )
+
+    def returns(self, batch_inds: np.ndarray, envs: np.ndarray, env=None):
+        """One-step targets: each row's own (B,) reward, no discount of its own (the algorithm's
+        gamma applies) and the row itself to bootstrap from."""
+        return self._normalize_reward(self.rewards[batch_inds, envs], env).astype(np.float32), None, batch_inds
+
+
+class QMapReplayBuffer(DemonstrationRows, ExpertLabels, NStepReturns, CellMaskReplayBuffer):
+    """relmogen-d's replay: ``CellMaskReplayBuffer`` with the add-ons' rows and columns. ``demo`` marks
+    demonstration rows (kept with ``keep_demonstrations``), ``labels`` holds each row's expert
+    action for the margin term, and with ``n_step_returns`` > 1 samples carry n-step rewards and
+    their ``discounts`` (``RelmogenDQN`` sets it and ``gamma`` before sampling)."""
+
+
+
 # --------------------------------------------------------------------- algorithm
 class RelmogenDQN(DQN):
-    """SB3 DQN + Double DQN targets + mask-aware exploration and greedy choice (module doc)."""
+    """SB3 DQN + Double DQN targets + mask-aware exploration and greedy choice (module doc); the
+    add-ons' arguments (``conservative_weight``, ``demo_margin_weight``, ``n_step_returns``,
+    ``oracle_labels``) are described in ``relmogen/agents/addons``."""
 
     def __init__(self, policy=QMapDQNPolicy, env=None, *, subgoal_parts: tuple[str, ...] = ALL_PARTS,
                  mask_arm: bool = True,
@@ -422,12 +340,19 @@ class RelmogenDQN(DQN):
                          **kwargs)
 
     def _setup_model(self) -> None:
+        """Runtime state from the saved settings (construction and ``load`` both come here)."""
         self.subgoal_parts = tuple(self.subgoal_parts)  # ``load`` restores it from JSON as a list
-        self._acting_labels, self._label_agreement = None, deque(maxlen=LABEL_AGREEMENT_WINDOW)  # runtime only
+        self._acting_masks = None
+        self._oracle_labeller = OracleLabeller() if self.oracle_labels else None
         super()._setup_model()
 
+    def active_loss_terms(self) -> list[LossTerm]:
+        """The add-ons' loss terms with a nonzero weight, in the order they join the Huber loss."""
+        terms = [conservative_term(self.conservative_weight), demonstration_margin_term(self.demo_margin_weight)]
+        return [term for term in terms if term.weight]
+
     def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "_acting_masks", "_acting_labels", "_label_agreement"]
+        return [*super()._excluded_save_params(), "_acting_masks", "_oracle_labeller"]
 
     @staticmethod
     def _wrap_env(env, verbose: int = 0, monitor_wrapper: bool = True) -> VecEnv:
@@ -466,8 +391,8 @@ class RelmogenDQN(DQN):
 
     def _sample_action(self, learning_starts: int, action_noise=None, n_envs: int = 1):
         masks = self._acting_masks = self.tracked_masks(n_envs)
-        if self.oracle_labels:  # before acting: the label is the oracle's choice in this state
-            self._acting_labels = np.asarray(self.env.env_method(ORACLE_LABEL_METHOD), dtype=np.int64)
+        if self._oracle_labeller is not None:  # before acting: the label is the oracle's choice in this state
+            self._oracle_labeller.ask(self.env)
         if self.num_timesteps < learning_starts:
             action = sample_allowed(self.allowed(masks, n_envs).cpu().numpy())
         else:
@@ -475,12 +400,10 @@ class RelmogenDQN(DQN):
         return action, action
 
     def _store_transition(self, replay_buffer, buffer_action, new_obs, reward, dones, infos) -> None:
-        if isinstance(replay_buffer, QMapReplayBuffer):
+        if isinstance(replay_buffer, CellMaskReplayBuffer):
             replay_buffer.acting_masks = self._acting_masks
-            replay_buffer.acting_labels = self._acting_labels
-        if self._acting_labels is not None:
-            self._label_agreement.extend(np.asarray(buffer_action).reshape(-1) == self._acting_labels)
-            self._acting_labels = None
+        if self._oracle_labeller is not None:
+            self._oracle_labeller.hand_over(replay_buffer, buffer_action)
         super()._store_transition(replay_buffer, buffer_action, new_obs, reward, dones, infos)
 
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False,
@@ -504,7 +427,8 @@ class RelmogenDQN(DQN):
 
     # -------------------------------------------------------------- learning
     def double_dqn_targets(self, data) -> th.Tensor:
-        """r + gamma (1 - done) Q_target(s', argmax_a' Q_online(s', a')), argmax over allowed a'."""
+        """r + gamma (1 - done) Q_target(s', argmax_a' Q_online(s', a')), argmax over allowed a'; a
+        sample's own ``discounts`` (n-step returns) replace gamma."""
         with th.no_grad():
             online = self.q_net(data.next_observations)
             best = masked_argmax(online, self.allowed(getattr(data, "next_masks", None), online.shape[0]))
@@ -516,51 +440,29 @@ class RelmogenDQN(DQN):
     def train(self, gradient_steps: int, batch_size: int = 100) -> None:
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
-        if isinstance(self.replay_buffer, QMapReplayBuffer):  # both may change on a resume
-            self.replay_buffer.n_step_returns, self.replay_buffer.gamma = self.n_step_returns, self.gamma
-        losses = np.array([self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env))
-                           for _ in range(gradient_steps)])
+        use_n_step_returns(self.replay_buffer, self.n_step_returns, self.gamma)
+        steps = [self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env))
+                 for _ in range(gradient_steps)]
         self._n_updates += gradient_steps
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
-        self.logger.record("train/loss", float(losses[:, 0].mean()))
-        if self.conservative_weight:
-            self.logger.record("train/conservative_gap", float(losses[:, 1].mean()))
-        if self.demo_margin_weight:
-            self.logger.record("train/demo_margin_loss", float(losses[:, 2].mean()))
-        if self._label_agreement:
-            self.logger.record("rollout/oracle_agreement", float(np.mean(self._label_agreement)))
+        for key in steps[0]:
+            self.logger.record(f"train/{key}", float(np.mean([step[key] for step in steps])))
+        if self._oracle_labeller is not None:
+            self._oracle_labeller.record(self.logger)
 
-    def conservative_gap(self, q_values: th.Tensor, taken: th.Tensor, masks: th.Tensor | None) -> th.Tensor:
-        """Mean over the batch of logsumexp over allowed actions of Q(s, .) minus Q(s, a_taken)."""
-        allowed = self.allowed(masks, q_values.shape[0])
-        return (q_values.masked_fill(~allowed, -th.inf).logsumexp(dim=1, keepdim=True) - taken).mean()
-
-    def demonstration_margin(self, q_values: th.Tensor, data) -> th.Tensor:
-        """DQfD's large-margin loss, mean over the batch's labelled rows (0 without any): max over
-        allowed a of [Q(s, a) + 0.8 if a is not the expert's a_E] minus Q(s, a_E). a_E is
-        ``data.labels``: a demonstration's own action or the oracle's label of a policy state."""
-        labelled = data.labels >= 0 if data.labels is not None else None
-        if labelled is None or not labelled.any():
-            return th.zeros((), device=q_values.device)
-        q_values, taken = q_values[labelled], data.labels.long()[labelled].reshape(-1, 1)
-        expert = F.one_hot(taken.reshape(-1), q_values.shape[1]).bool()
-        masks = data.masks[labelled] if data.masks is not None else None
-        allowed = self.allowed(masks, q_values.shape[0]) | expert
-        best = (q_values + DQFD_MARGIN * ~expert).masked_fill(~allowed, -th.inf).max(dim=1).values
-        return (best - q_values.gather(1, taken).reshape(-1)).mean()
-
-    def _gradient_step(self, data) -> tuple[float, float, float]:
-        """One update; returns (Huber TD loss, conservative gap, demonstration margin loss)."""
+    def _gradient_step(self, data) -> dict[str, float]:
+        """One update; returns the Huber TD loss (``loss``) and the value of each active loss term."""
         targets = self.double_dqn_targets(data)
         q_values = self.q_net(data.observations)
         current = q_values.gather(1, data.actions.long())
         td_loss = F.smooth_l1_loss(current, targets)
-        no_term = th.zeros((), device=q_values.device)
-        gap = self.conservative_gap(q_values, current, data.masks) if self.conservative_weight else no_term
-        margin = self.demonstration_margin(q_values, data) if self.demo_margin_weight else no_term
-        loss = td_loss + self.conservative_weight * gap + self.demo_margin_weight * margin
+        loss_terms = self.active_loss_terms()
+        terms = {term.name: term.value(q_values, current, data, self.allowed) for term in loss_terms}
+        loss = td_loss
+        for term in loss_terms:
+            loss = loss + term.weight * terms[term.name]
         self.policy.optimizer.zero_grad()
         loss.backward()
         th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
         self.policy.optimizer.step()
-        return td_loss.item(), gap.item(), margin.item()
+        return {"loss": td_loss.item(), **{name: value.item() for name, value in terms.items()}}

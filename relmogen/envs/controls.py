@@ -2,7 +2,8 @@
 
 ``joint``: 10-D normalised joint velocities (2 wheels, torso, 7 arm joints) held for 0.1 s,
 as the SAC/OAC baselines use (paper Section IV-B). The subgoal controls (``subgoal-r``,
-``subgoal-d``) execute one subgoal through the motion generator per step.
+``subgoal-d``, ``subgoal_controls.py``) execute one subgoal through the motion generator per
+step; ``control_registry.py`` builds a control by name.
 """
 
 from __future__ import annotations
@@ -77,18 +78,3 @@ class JointVelocityControl(Control):
         if termination == "collision":
             info["collisions"] = [c.describe(self.env.world.client) for c in self.env.collisions()]
         return StepOutcome(reward, termination, terms, info)
-
-
-CONTROL_NAMES = ("joint", "subgoal-r", "subgoal-d")
-
-
-def make_control(name: str, env: RelmogenEnv, **options: Any):
-    if name not in CONTROL_NAMES:
-        raise ValueError(f"unknown control {name!r}; valid controls: {', '.join(CONTROL_NAMES)}")
-    if name == "joint":
-        if options:
-            raise ValueError(f"control 'joint' takes no options, got {sorted(options)}")
-        return JointVelocityControl(env)
-    from relmogen.envs.subgoal_controls import SubgoalDControl, SubgoalRControl
-
-    return (SubgoalRControl if name == "subgoal-r" else SubgoalDControl)(env, **options)

@@ -20,7 +20,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from relmogen.envs.controls import make_control
+from relmogen.envs.control_registry import make_control
 from relmogen.robots.robot import Robot
 from relmogen.robots.spec import load_spec
 from relmogen.scenes import available_scenes, make_scene

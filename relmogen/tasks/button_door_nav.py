@@ -46,6 +46,18 @@ BUTTON_HEIGHT = (0.9, 1.1)
 BUTTON_HALF_SPAN = 0.12  # wall needed on either side of the button centre
 
 
+def button_cap_cells(rgb: np.ndarray, cell: int) -> np.ndarray:
+    """(N, 3, S, S) or (N, S, S, 3) uint8 images -> (N, S / cell, S / cell) bool: the ``cell`` x
+    ``cell`` pixel blocks that hold button-cap pixels (red: R > 100, G < 60, B < 60, the only red
+    in ButtonDoorNav)."""
+    if rgb.shape[1] == 3:
+        rgb = rgb.transpose(0, 2, 3, 1)
+    red = (rgb[..., 0] > 100) & (rgb[..., 1] < 60) & (rgb[..., 2] < 60)
+    n, size = red.shape[0], red.shape[1]
+    q = size // cell
+    return red.reshape(n, q, cell, q, cell).any(axis=(2, 4))
+
+
 @register_task
 class ButtonDoorNav(PushDoorNav):
     name = "ButtonDoorNav"

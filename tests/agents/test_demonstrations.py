@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-import torch as th
+from dqn_helpers import SMALL_NET
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from relmogen.agents.demonstrations import OracleAgreement, OracleLabels, add_demonstrations, oracle_choice
@@ -11,15 +11,7 @@ from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.sac import SharedEncoderSAC
 from relmogen.envs.relmogen_env import RelmogenEnv
 
-SMALL_NET = {"widths": (8, 16, 16, 32), "head_width": 32}
-
-
-@pytest.fixture(autouse=True)
-def one_torch_thread():
-    threads = th.get_num_threads()
-    th.set_num_threads(1)
-    yield
-    th.set_num_threads(threads)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def make_env(task: str, control: str):
@@ -58,8 +50,9 @@ def test_oracle_labels_go_with_the_policys_own_transitions():
     labels, actions = buffer.labels[: buffer.pos], buffer.actions[: buffer.pos, :, 0]
     assert ((labels >= 0) & (labels < model.action_space.n)).all() and not buffer.demo.any()
     assert (labels != actions).any()  # random policy actions, oracle labels
-    assert len(model._label_agreement) == buffer.pos * 2
-    assert np.mean(model._label_agreement) == pytest.approx(np.mean(labels == actions))
+    agreement = model._oracle_labeller.agreement
+    assert len(agreement) == buffer.pos * 2
+    assert np.mean(agreement) == pytest.approx(np.mean(labels == actions))
     add_demonstrations(model, make, episodes=1, seed=5, quiet=True)  # demonstrations: labelled by themselves
     demo = buffer.demo[: buffer.pos]
     np.testing.assert_array_equal(buffer.labels[: buffer.pos][demo], buffer.actions[: buffer.pos, :, 0][demo])

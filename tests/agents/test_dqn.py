@@ -1,9 +1,14 @@
-"""SGP-D (``relmogen-d``): Q-map index layout, Double DQN targets, action masking, end to end."""
+"""SGP-D (``relmogen-d``): Q-map index layout, Double DQN targets, action masking, replay, end to end.
 
-import gymnasium as gym
+The add-ons have their own files: ``test_dqn_conservative.py``, ``test_dqn_demonstration_margin.py``,
+``test_dqn_kept_demonstrations.py``, ``test_dqn_n_step.py`` and ``test_dqn_skip_no_ops.py``
+(oracle labels: ``test_demonstrations.py``).
+"""
+
 import numpy as np
 import pytest
 import torch as th
+from dqn_helpers import Q, SIZE, SMALL_NET, few_free_cells, make_env, random_batch
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -12,60 +17,15 @@ from relmogen.agents.dqn import (
     QMapReplayBuffer,
     QMapReplaySamples,
     RelmogenDQN,
-    DQFD_MARGIN,
     allowed_actions,
     env_policy,
-    masked_argmax,
     masks_before,
     without_actions,
 )
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
-from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
 
-SIZE = 64
-Q = SIZE // 4
-SMALL_NET = {"widths": (8, 16, 16, 32), "head_width": 32}
-
-
-@pytest.fixture(scope="module", autouse=True)
-def one_torch_thread():
-    """Two OpenMP threads on a loaded 2-core machine run ~50x slower than one."""
-    threads = th.get_num_threads()
-    th.set_num_threads(1)
-    yield
-    th.set_num_threads(threads)
-
-
-def make_env(audit=None):
-    env = RelmogenEnv(task="PointNav", control="subgoal-d", image_size=SIZE, episode_steps=5)
-    return env if audit is None else MaskAudit(env, audit)
-
-
-@pytest.fixture(scope="module")
-def model():
-    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
-                      policy_kwargs=SMALL_NET, seed=0)
-    yield dqn
-    dqn.env.close()
-
-
-def random_batch(space: spaces.Dict, n: int, seed: int = 0) -> dict[str, th.Tensor]:
-    space.seed(seed)
-    samples = [space.sample() for _ in range(n)]
-    return {key: th.as_tensor(np.stack([s[key] for s in samples])) for key in space.spaces}
-
-
-def few_free_cells(n: int, cells=((0, 0), (5, 9), (15, 15)), arm_cells=None) -> np.ndarray:
-    """(n, 2, Q, Q) masks: base allowed only at ``cells``; arm at ``arm_cells`` (None: everywhere)."""
-    masks = np.zeros((n, 2, Q, Q), dtype=bool)
-    for i, j in cells:
-        masks[:, 0, i, j] = True
-    if arm_cells is None:
-        masks[:, 1] = True
-    for i, j in arm_cells or ():
-        masks[:, 1, i, j] = True
-    return masks
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 # ------------------------------------------------------------------ (a) index layout
@@ -152,54 +112,6 @@ def test_double_dqn_target_uses_online_argmax_and_target_value(model):
     np.testing.assert_allclose(n_step.numpy(), expected.numpy(), rtol=1e-5, atol=1e-6)
 
 
-def conservative_batch(model, n: int = 6) -> QMapReplaySamples:
-    """Transitions whose taken actions are allowed (different ones), ending with reward 0."""
-    masks = th.as_tensor(few_free_cells(n, arm_cells=((2, 3), (9, 9))))
-    allowed = allowed_actions(masks, model.subgoal_parts)
-    actions = th.stack([allowed[b].nonzero().ravel()[7 * b] for b in range(n)]).reshape(-1, 1)
-    return QMapReplaySamples(observations=random_batch(model.observation_space, n, seed=3), actions=actions,
-                             next_observations=random_batch(model.observation_space, n, seed=4),
-                             dones=th.ones(n, 1), rewards=th.zeros(n, 1), next_masks=masks, masks=masks)
-
-
-def test_conservative_gap_is_logsumexp_over_allowed_actions_minus_the_taken_one(model):
-    data = conservative_batch(model)
-    with th.no_grad():
-        q_values = model.q_net(data.observations)
-        taken = q_values.gather(1, data.actions)
-        gap = model.conservative_gap(q_values, taken, data.masks)
-    allowed = allowed_actions(data.masks, model.subgoal_parts)
-    expected = np.mean([float(th.logsumexp(q_values[b][allowed[b]], 0) - taken[b]) for b in range(len(taken))])
-    assert float(gap) == pytest.approx(expected, rel=1e-5)
-    everything = model.conservative_gap(q_values, taken, th.ones_like(data.masks))
-    assert float(everything) > float(gap)  # masked cells are left out of the logsumexp
-
-
-def updated_on_one_batch(make_batch, updates: int, **weights) -> tuple[np.ndarray, th.Tensor, QMapReplaySamples]:
-    """A fresh small model updated ``updates`` times on one batch: the (TD, conservative, margin)
-    losses of every update, the final Q values on the batch, and the batch."""
-    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
-                      policy_kwargs=SMALL_NET, seed=0, learning_rate=3e-3, **weights)
-    dqn.policy.set_training_mode(True)
-    data = make_batch(dqn)
-    losses = np.array([dqn._gradient_step(data) for _ in range(updates)])
-    with th.no_grad():
-        q_values = dqn.q_net(data.observations)
-    dqn.env.close()
-    return losses, q_values, data
-
-
-def test_conservative_updates_lower_untried_actions_below_the_taken_ones():
-    losses, q_values, data = updated_on_one_batch(conservative_batch, 30, conservative_weight=5.0)
-    gaps = losses[:, 1]
-    allowed = allowed_actions(data.masks)
-    assert min(gaps) >= 0 and gaps[-1] < gaps[0] - 1.0  # from about log(60 allowed actions) = 4.1
-    for b, action in enumerate(data.actions.ravel()):
-        others = allowed[b].clone()
-        others[action] = False
-        assert q_values[b, action] > q_values[b][others].mean() + 1.0
-
-
 # ------------------------------------------------------------- (c) masked exploration
 def assert_base_actions_free(actions: np.ndarray, masks: np.ndarray) -> int:
     """Every base action lies on an allowed base cell and every arm action on an allowed arm
@@ -260,21 +172,6 @@ def test_greedy_choice_never_picks_an_occupied_cell(model):
             head.bias.copy_(saved)
 
 
-def test_skip_no_ops_excludes_a_subgoal_whose_view_did_not_change_until_it_does(model):
-    env = model.env.envs[0]
-    obs, _ = env.reset(seed=3)
-    greedy, skipping = env_policy(model, env), env_policy(model, env, skip_no_ops=True)
-    first = skipping(obs)
-    assert first == greedy(obs)
-    second, third = skipping(obs), skipping(obs)  # the same view again: the earlier choices are excluded
-    assert len({int(first), int(second), int(third)}) == 3
-    changed = dict(obs, rgb=obs["rgb"].copy())
-    changed["rgb"][0, 0] ^= 255
-    assert skipping(changed) == greedy(changed)  # a new view: nothing excluded
-    skipping.reset()
-    assert skipping(obs) == first and skipping(changed) == greedy(changed)
-
-
 def test_excluding_every_allowed_action_leaves_the_row_as_it_was():
     allowed = th.tensor([[True, False, True], [True, True, False]])
     narrowed = without_actions(allowed, [0, 2])
@@ -323,175 +220,7 @@ def test_masks_of_an_older_buffer_are_rebuilt_from_the_previous_next_masks():
     assert masks_before(next_masks, dones, pos=0, full=True)[3].all()  # after an episode end: every cell
 
 
-# ------------------------------------------------------------ kept demonstrations
-def tiny_buffer(rows: int, keep: bool) -> QMapReplayBuffer:
-    space = spaces.Dict({"depth": spaces.Box(0.0, 3.0, (2, 2, 1), np.float32)})
-    return QMapReplayBuffer(rows, space, spaces.Discrete(NUM_MAPS), device="cpu", keep_demonstrations=keep)
-
-
-def add_step(buffer: QMapReplayBuffer, row_id: int, reward: float = 0.0, done=False, timeout=False,
-             demo=False) -> None:
-    """One transition with action ``row_id`` whose next observation's depth is ``row_id`` too (to see
-    which row a target bootstraps from)."""
-    buffer.adding_demonstrations = demo
-    obs, next_obs = {"depth": np.zeros((1, 2, 2, 1), np.float32)}, {"depth": np.full((1, 2, 2, 1), row_id, np.float32)}
-    buffer.add(obs, next_obs, np.array([[row_id]]), np.array([reward]), np.array([done or timeout]),
-               [{"TimeLimit.truncated": timeout}])
-    buffer.adding_demonstrations = False
-
-
-def add_rows(buffer: QMapReplayBuffer, actions, demonstrations: bool) -> None:
-    for action in actions:
-        add_step(buffer, action, demo=demonstrations)
-
-
-@pytest.mark.parametrize("keep", [True, False])
-def test_the_ring_skips_kept_demonstration_rows(keep):
-    buffer = tiny_buffer(8, keep)
-    add_rows(buffer, [20, 21, 22], demonstrations=True)
-    add_rows(buffer, range(10), demonstrations=False)  # 10 policy rows wrap the 8-row ring
-    stored = buffer.actions[:, 0, 0].astype(int).tolist()
-    if keep:
-        assert stored == [20, 21, 22, 5, 6, 7, 8, 9] and buffer.demo.tolist() == [True] * 3 + [False] * 5
-        add_rows(buffer, [10], demonstrations=False)
-        assert buffer.full and buffer.actions[3, 0, 0] == 10  # the next row goes after the demonstrations
-    else:
-        assert stored == [5, 6, 7, 8, 9, 2, 3, 4] and not buffer.demo.any()
-    add_rows(buffer, [23], demonstrations=True)  # a resume's extra demonstrations are kept as well
-    assert buffer.demo.sum() == (4 if keep else 1)
-
-
-def test_demonstrations_filling_the_whole_ring_are_refused():
-    buffer = tiny_buffer(4, keep=True)
-    add_rows(buffer, range(4), demonstrations=True)
-    with pytest.raises(ValueError, match="demonstrations fill all 4 rows"):
-        add_rows(buffer, [5], demonstrations=False)
-
-
-def test_a_buffer_saved_before_demonstration_rows_loads_with_none():
-    buffer = tiny_buffer(4, keep=False)
-    state = buffer.__getstate__() if hasattr(buffer, "__getstate__") else dict(vars(buffer))
-    for key in ("demo", "keep_demonstrations", "adding_demonstrations", "acting_masks", "labels", "acting_labels"):
-        state.pop(key)
-    old = QMapReplayBuffer.__new__(QMapReplayBuffer)
-    old.__setstate__(dict(state))
-    assert old.demo.shape == (4,) and not old.demo.any() and not old.keep_demonstrations
-    assert (old.labels == -1).all()
-    add_rows(old, [1], demonstrations=False)
-
-
-def test_rows_carry_expert_labels_into_their_samples():
-    buffer = tiny_buffer(8, keep=False)
-    add_rows(buffer, [20, 21], demonstrations=True)  # a demonstration is labelled by its own action
-    buffer.acting_labels = np.array([3])
-    add_step(buffer, 9)  # a policy step with the oracle's label
-    add_step(buffer, 10)  # and one without
-    assert buffer.labels[:4, 0].tolist() == [20, 21, 3, -1] and buffer.acting_labels is None
-    assert buffer._get_samples(np.array([0, 2, 3])).labels.tolist() == [20, 3, -1]
-    state = dict(vars(buffer))
-    del state["labels"]  # a buffer saved before labels: its demonstrations get their own actions
-    old = QMapReplayBuffer.__new__(QMapReplayBuffer)
-    old.__setstate__(state)
-    assert old.labels[:4, 0].tolist() == [20, 21, -1, -1]
-
-
-def demonstration_batch(model, n: int = 6) -> QMapReplaySamples:
-    data = conservative_batch(model, n)
-    demo = th.tensor([True, False] * (n // 2))
-    return data._replace(labels=th.where(demo, data.actions.reshape(-1), -1))
-
-
-def test_demonstration_margin_is_dqfds_large_margin_loss_on_demonstration_rows(model):
-    data = demonstration_batch(model)
-    with th.no_grad():
-        q_values = model.q_net(data.observations)
-        margin = model.demonstration_margin(q_values, data)
-    allowed = allowed_actions(data.masks, model.subgoal_parts)
-    expected = []
-    for b in np.flatnonzero(data.labels.numpy() >= 0):
-        action = int(data.labels[b])
-        others = allowed[b].clone()
-        others[action] = False
-        best_other = float(q_values[b][others].max()) + DQFD_MARGIN
-        expected.append(max(best_other, float(q_values[b, action])) - float(q_values[b, action]))
-    assert float(margin) == pytest.approx(np.mean(expected), rel=1e-5)
-    assert float(model.demonstration_margin(q_values, data._replace(labels=th.full((6,), -1)))) == 0.0
-    relabelled = data._replace(labels=th.where(data.labels >= 0, (data.labels + 1) % model.action_space.n, -1))
-    # the margin follows the labels, not the stored actions
-    assert float(model.demonstration_margin(q_values, relabelled)) != pytest.approx(float(margin))
-
-
-def test_margin_updates_make_each_demonstrated_action_the_greedy_one():
-    losses, q_values, data = updated_on_one_batch(demonstration_batch, 40, demo_margin_weight=5.0)
-    margins = losses[:, 2]
-    greedy = masked_argmax(q_values, allowed_actions(data.masks))
-    assert margins[0] > DQFD_MARGIN and margins[-1] < 0.1 * margins[0]
-    demo = data.labels.numpy() >= 0
-    np.testing.assert_array_equal(greedy.numpy()[demo], data.labels.numpy()[demo])
-
-
-# ----------------------------------------------------------------- n-step returns
-def n_step_samples(buffer: QMapReplayBuffer, rows) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
-    data = buffer._get_samples(np.array(rows))
-    discounts = None if data.discounts is None else data.discounts.numpy().ravel()
-    return (data.rewards.numpy().ravel(), discounts, data.dones.numpy().ravel(),
-            data.next_observations["depth"][:, 0, 0, 0].numpy())
-
-
-def test_n_step_targets_sum_rewards_up_to_the_episode_end_and_bootstrap_from_the_last_state():
-    buffer = tiny_buffer(8, keep=False)
-    buffer.n_step_returns, buffer.gamma = 3, 0.5
-    for row, reward in enumerate([1, 2, 3, 4, 5, 6]):  # terminal at row 2, time limit at row 4; row 5 is the newest
-        add_step(buffer, row, reward, done=row == 2, timeout=row == 4)
-    rewards, discounts, dones, bootstrap_rows = n_step_samples(buffer, range(6))
-    np.testing.assert_allclose(rewards, [1 + 0.5 * 2 + 0.25 * 3, 2 + 0.5 * 3, 3, 4 + 0.5 * 5, 5, 6])
-    np.testing.assert_allclose(discounts, [0.125, 0.25, 0.5, 0.25, 0.5, 0.5])
-    np.testing.assert_array_equal(dones, [1, 1, 1, 0, 0, 0])  # a time limit still bootstraps
-    np.testing.assert_array_equal(bootstrap_rows, [2, 2, 2, 4, 4, 5])
-    buffer.n_step_returns = 1
-    rewards, discounts, _, bootstrap_rows = n_step_samples(buffer, range(6))
-    assert discounts is None  # one-step samples as before: the algorithm's gamma applies
-    np.testing.assert_array_equal(rewards, [1, 2, 3, 4, 5, 6])
-    np.testing.assert_array_equal(bootstrap_rows, range(6))
-
-
-def test_n_step_windows_stop_where_kept_demonstrations_border_policy_rows():
-    buffer = tiny_buffer(6, keep=True)
-    buffer.n_step_returns, buffer.gamma = 3, 0.5
-    add_step(buffer, 0, 1.0, demo=True)
-    add_step(buffer, 1, 1.0, demo=True)  # the demonstration block ends without an episode end
-    for row in range(10, 15):  # 5 policy rows in 4 free rows: the newest, 14, goes to row 2
-        add_step(buffer, row, 1.0)
-    assert buffer.actions[:, 0, 0].astype(int).tolist() == [0, 1, 14, 11, 12, 13]
-    rewards, discounts, _, bootstrap_rows = n_step_samples(buffer, [5, 1, 2, 3, 0])
-    np.testing.assert_array_equal(bootstrap_rows, [13, 1, 14, 13, 1])
-    np.testing.assert_allclose(discounts, [0.5, 0.5, 0.5, 0.125, 0.25])
-    np.testing.assert_allclose(rewards, [1, 1, 1, 1.75, 1.5])
-
-
 # ------------------------------------------------------------------- (d) end to end
-class MaskAudit(gym.Wrapper):
-    """Counts actions sent to a masked cell according to the latest ``info["base_mask"]`` and
-    ``info["arm_mask"]``."""
-
-    def __init__(self, env, record: dict):
-        super().__init__(env)
-        self.record, self.masks = record, None
-
-    def reset(self, **kwargs):
-        obs, info = self.env.reset(**kwargs)
-        self.masks = info
-        return obs, info
-
-    def step(self, action):
-        part, _, i, j = self.env.unwrapped.control.decode(int(action))
-        self.record["steps"] = self.record.get("steps", 0) + 1
-        self.record["violations"] = self.record.get("violations", 0) + int(not self.masks[f"{part}_mask"][i, j])
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        self.masks = info
-        return obs, reward, terminated, truncated, info
-
-
 def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
     record: dict = {}
     venv = DummyVecEnv([lambda: make_env(record)])
@@ -511,7 +240,8 @@ def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
         assert th.equal(value, loaded.q_net.state_dict()[key])
     assert loaded.subgoal_parts == model.subgoal_parts and loaded.replay_buffer.pos == 200
     assert loaded.replay_buffer.observations["depth"].dtype == np.float16
-    np.testing.assert_array_equal(loaded.replay_buffer.next_masks, model.replay_buffer.next_masks)
+    filled = slice(0, 200)  # a buffer that is not full pickles only its filled rows
+    np.testing.assert_array_equal(loaded.replay_buffer.next_masks[filled], model.replay_buffer.next_masks[filled])
     assert not model.replay_buffer.next_masks[:200, :, 1].all()  # arm masks were recorded
     buffer = model.replay_buffer  # each transition keeps the masks its action was chosen under
     assert_base_actions_free(buffer.actions[:200, 0, 0], buffer.masks[:200, 0])

@@ -3,7 +3,7 @@
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from relmogen.envs.controls import CONTROL_NAMES
+from relmogen.envs.control_registry import CONTROL_NAMES
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.tasks import TASKS
 

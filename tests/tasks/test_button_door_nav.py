@@ -12,6 +12,7 @@ from relmogen.agents.oracles.base import arm_action, base_action
 from relmogen.agents.oracles.push_door_nav import plan_stroke
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.scenes.objects.door import BUTTON_TRAVEL, DOOR_LIMITS, OPEN_ANGLE
+from relmogen.tasks.button_door_nav import button_cap_cells
 
 
 @pytest.fixture(scope="module")
@@ -169,3 +170,13 @@ def test_random_joint_steps_keep_door_and_button_physical(joint_env):
 @pytest.mark.skipif(os.environ.get("RELMOGEN_SLOW") != "1", reason="slow: set RELMOGEN_SLOW=1")
 def test_random_joint_steps_keep_door_and_button_physical_long(joint_env):
     random_joint_steps_stay_physical(joint_env, 10_000)
+
+
+def test_button_cap_cells_mark_the_blocks_with_red_cap_pixels_in_either_channel_layout():
+    rgb = np.full((1, 16, 16, 3), 200, np.uint8)
+    rgb[0, 5, 9] = (230, 10, 10)  # one cap pixel in block (1, 2) of 4 x 4 pixels
+    rgb[0, 12, 0] = (230, 90, 10)  # orange, not the cap
+    expected = np.zeros((1, 4, 4), bool)
+    expected[0, 1, 2] = True
+    np.testing.assert_array_equal(button_cap_cells(rgb, 4), expected)
+    np.testing.assert_array_equal(button_cap_cells(rgb.transpose(0, 3, 1, 2), 4), expected)

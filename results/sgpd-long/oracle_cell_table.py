@@ -7,7 +7,7 @@ learned arm Q map (mean / std / max over seeds; 50 is what an uninformative map 
 average), the same for the 3x3 cells around it (among all such squares), and how often the
 greedy choice was an arm action, or the oracle's very cell.
 
-    python scripts/oracle_cell_table.py results/sgpd-long/oracle_qmaps/{untrained,1.75h,3.5h}
+    python results/sgpd-long/oracle_cell_table.py results/sgpd-long/oracle_qmaps/{untrained,1.75h,3.5h}
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ action, the same part (base or arm), and, for arm rows, a pixel within one cell.
 whether the margin term (``algo.demo_margin_weight``) fitted the demonstrations, apart from
 whether the policy then reaches such states by itself.
 
-    python scripts/demo_agreement.py runs/sgpd-dqfd/* --json results/sgpd-dqfd/demo_agreement.json
+    python results/sgpd-dqfd/demo_agreement.py runs/sgpd-dqfd/* --json results/sgpd-dqfd/demo_agreement.json
 """
 
 from __future__ import annotations

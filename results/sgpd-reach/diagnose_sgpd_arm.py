@@ -8,8 +8,8 @@ band and writes every sample as JSON.
 ``button`` (ButtonDoorNav): with the robot standing 0.65 m in front of the button facing
 it, which of the 12 push directions of the 3 x 3 cells around the button's pixel press it?
 
-    python scripts/diagnose_sgpd_arm.py reach --task ButtonDoorNav --out results/sgpd-reach
-    python scripts/diagnose_sgpd_arm.py button --out results/sgpd-reach
+    python results/sgpd-reach/diagnose_sgpd_arm.py reach --task ButtonDoorNav --out results/sgpd-reach
+    python results/sgpd-reach/diagnose_sgpd_arm.py button --out results/sgpd-reach
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ samplers: ``uniform`` (every allowed action equally likely, what training does) 
 ``part-coin`` (base or arm with probability 1/2 each, then uniform within the part, as
 SGP-R's a0 does). Prints one JSON object with the task metrics of each.
 
-    python scripts/measure_sgpd_exploration.py --task ButtonDoorNav --episodes 30 --sampler uniform
+    python results/sgpd-first/measure_sgpd_exploration.py --task ButtonDoorNav --episodes 30 --sampler uniform
 """
 
 from __future__ import annotations

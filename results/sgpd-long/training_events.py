@@ -2,8 +2,8 @@
 button presses (ButtonDoorNav, from the ``reward_terms/button`` TensorBoard scalar) and items
 closed within 10 deg / 10 cm (ArrangeKitchenMM, from ``episodes.csv``).
 
-    python scripts/training_events.py runs/sgpd-long/*__relmogen-d__* --window 400
-    python scripts/training_events.py runs/sgpd-button/* --phases   # one row per resume that changed settings
+    python results/sgpd-long/training_events.py runs/sgpd-long/*__relmogen-d__* --window 400
+    python results/sgpd-long/training_events.py runs/sgpd-button/* --phases   # one row per resume that changed settings
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ executed from the same saved physics state, and presses (cap deeper than 3 cm) a
 Pushes further from the cap are taken not to press, so the odds are a lower bound. Prints a
 Markdown row per state and frame, then one JSON summary.
 
-    python scripts/press_odds.py --states 8 --out results/sgpd-surface/press_odds.json
+    python results/sgpd-surface/press_odds.py --states 8 --out results/sgpd-surface/press_odds.json
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ import json
 from pathlib import Path
 
 import numpy as np
-from replay_button_pushes import cap_cells
 from scipy.ndimage import binary_dilation
 
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.envs.subgoal_controls import PUSH_BINS, PUSH_FRAMES, SubgoalDControl
+from relmogen.envs.subgoal_controls import PUSH_BINS, PUSH_FRAMES, Q_DOWNSAMPLE, SubgoalDControl
 from relmogen.experiments.oracle import oracle_arm_pushes
+from relmogen.tasks.button_door_nav import button_cap_cells
 
 TASK = "ButtonDoorNav"
 
@@ -33,7 +33,7 @@ def presses_near_cap(env: RelmogenEnv, control: SubgoalDControl) -> dict:
     unwrapped.control = control
     obs = unwrapped._observe()
     mask = control.extra_info()["arm_mask"]
-    near = binary_dilation(cap_cells(obs["rgb"][None])[0], np.ones((3, 3), bool)) & mask
+    near = binary_dilation(button_cap_cells(obs["rgb"][None], Q_DOWNSAMPLE)[0], np.ones((3, 3), bool)) & mask
     mechanism, saved = unwrapped.task.mechanism, unwrapped.world.save_state()
     presses = 0
     try:

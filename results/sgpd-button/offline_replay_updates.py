@@ -2,8 +2,8 @@
 the stored transitions more often (a higher replay ratio) teach the arm Q map the rare
 rewarded pushes? The copy gets a new checkpoint; look at it with ``relmogen viz qmap``.
 
-    python scripts/offline_replay_updates.py runs/sgpd-button/RUN --updates 20000 --out runs/sgpd-offline/RUN
-    python scripts/offline_replay_updates.py RUN --updates 4000 --conservative-weight 1 --out OUT
+    python results/sgpd-button/offline_replay_updates.py runs/sgpd-button/RUN --updates 20000 --out runs/sgpd-offline/RUN
+    python results/sgpd-button/offline_replay_updates.py RUN --updates 4000 --conservative-weight 1 --out OUT
     relmogen viz qmap runs/sgpd-offline/RUN --drive oracle --states 16 --out DIR
 
 ``--from-scratch`` trains a freshly initialised network on the same replay instead (the
@@ -93,9 +93,9 @@ def main() -> None:
     with Progress() as progress:
         bar = progress.add_task("offline updates", total=args.updates)
         for update in range(1, args.updates + 1):
-            loss, gap, _ = model._gradient_step(model.replay_buffer.sample(params.batch_size))
-            losses.append(loss)
-            gaps.append(gap)
+            step = model._gradient_step(model.replay_buffer.sample(params.batch_size))
+            losses.append(step["loss"])
+            gaps.append(step.get("conservative_gap", 0.0))
             if update % copy_every == 0:
                 model.q_net_target.load_state_dict(model.q_net.state_dict())
             progress.advance(bar)

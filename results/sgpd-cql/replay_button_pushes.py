@@ -6,7 +6,7 @@ Q-map cell (its 4 x 4 pixel block) contain cap pixels? Prints one Markdown row p
 pushes with the cap in view, pushes on the cap, and which of them were rewarded by a press
 (reward >= 5: the +5 button reward, or +10 success).
 
-    python scripts/replay_button_pushes.py runs/sgpd-button/ButtonDoorNav__*
+    python results/sgpd-cql/replay_button_pushes.py runs/sgpd-button/ButtonDoorNav__*
 """
 
 from __future__ import annotations
@@ -20,18 +20,9 @@ import numpy as np
 from relmogen.agents.replay import stored_rows
 from relmogen.envs.subgoal_controls import Q_DOWNSAMPLE, decode_indices
 from relmogen.experiments.train import latest_replay
+from relmogen.tasks.button_door_nav import button_cap_cells
 
 PRESS_REWARD = 5.0
-
-
-def cap_cells(rgb: np.ndarray) -> np.ndarray:
-    """(N, 3, S, S) or (N, S, S, 3) uint8 -> (N, Q, Q) bool: cells holding button-cap pixels."""
-    if rgb.shape[1] == 3:
-        rgb = rgb.transpose(0, 2, 3, 1)
-    red = (rgb[..., 0] > 100) & (rgb[..., 1] < 60) & (rgb[..., 2] < 60)
-    n, size = red.shape[0], red.shape[1]
-    q = size // Q_DOWNSAMPLE
-    return red.reshape(n, q, Q_DOWNSAMPLE, q, Q_DOWNSAMPLE).any(axis=(2, 4))
 
 
 def push_counts(replay) -> dict[str, int]:
@@ -40,7 +31,7 @@ def push_counts(replay) -> dict[str, int]:
     rgb = rgb.reshape(-1, *rgb.shape[2:])
     actions = replay.actions[rows].reshape(-1).astype(int)
     rewards = replay.rewards[rows].reshape(-1)
-    cells = cap_cells(rgb)
+    cells = button_cap_cells(rgb, Q_DOWNSAMPLE)
     q = cells.shape[1]
     arm, _, i, j = decode_indices(actions, q)
     in_view = cells.any(axis=(1, 2))
