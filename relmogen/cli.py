@@ -1,17 +1,20 @@
 """The ``relmogen`` command line.
 
-    relmogen demo  [--episodes N] [--seed S] [--out DIR] [--json]
+    relmogen --version
+    relmogen tasks [--json]
+    relmogen demo  [--episodes N] [--seed S] [--out DIR] [--video PATH.gif|mp4] [--json]
     relmogen oracle --task T [--episodes N] [--policy oracle|random] [--control subgoal-r|subgoal-d]
                     [--image-size PX] [--push-frame base|surface] [--scene S] [--base-planner X]
                     [--arm-planner Y] [--arm-collision on|off] [--gif PATH] [--json]
     relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
     relmogen bench planner [--problems N] [--seed S] [--json]
     relmogen bench train [--task T] [--updates N] [--subgoals N] [--json]
-    relmogen train --task T --algo A [--seed S] [--preset P] [--episodes N] [--max-hours H]
+    relmogen train --task T --algo A [--seed S] [--preset NAME|FILE.yaml] [--episodes N] [--max-hours H]
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
-    relmogen eval RUN_DIR_OR_CHECKPOINT [--episodes N] [--base-planner X] [--arm-planner Y]
-                  [--arm-collision on|off] [--scene A|B] [--stochastic] [--skip-no-ops] [--json]
-    relmogen export RUN_DIR_OR_CHECKPOINT --out DIR
+    relmogen eval RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
+                  [--base-planner X] [--arm-planner Y] [--arm-collision on|off] [--scene A|B]
+                  [--stochastic] [--skip-no-ops] [--video PATH.gif|mp4] [--json]
+    relmogen export RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] --out DIR
     relmogen report RUN_DIRS... --out DIR
     relmogen report --table1 DIR
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
@@ -26,6 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+from relmogen import __version__
+
+CHECKPOINT_METAVAR = "latest|best|PATH"  # relmogen.experiments.evaluate.resolve_checkpoint
 PLANNER_PROBLEMS_DEFAULT = 8  # the whole `bench planner` run stays under ~3 minutes on 2 cores
 
 
@@ -44,10 +50,35 @@ def _print_metrics(metrics: dict, as_json: bool, title: str) -> None:
     Console().print(table)
 
 
+def cmd_tasks(args: argparse.Namespace) -> int:
+    from relmogen.experiments.task_catalogue import task_catalogue
+
+    rows = task_catalogue()
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    from rich.console import Console
+    from rich.table import Table
+
+    controls = ("joint", "subgoal-r", "subgoal-d")
+    table = Table(title="tasks", caption="Gymnasium id relmogen/<task>-v0; episode length in 0.1 s steps "
+                                         "(joint) or subgoals (r: subgoal-r, d: subgoal-d)")
+    table.add_column("task", no_wrap=True)
+    table.add_column("scene")
+    table.add_column("episode length\njoint / r / d", justify="center")
+    table.add_column("metrics", overflow="fold")
+    for row in rows:
+        lengths = " / ".join(str(row["episode_steps"][control]) for control in controls)
+        table.add_row(row["task"], row["scene"], lengths, ", ".join(row["metrics"]))
+    Console().print(table)
+    return 0
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     from relmogen.experiments.demo import run_demo
 
-    metrics = run_demo(episodes=args.episodes, seed=args.seed, out_dir=Path(args.out), quiet=args.json)
+    metrics = run_demo(episodes=args.episodes, seed=args.seed, out_dir=Path(args.out), quiet=args.json,
+                       video=Path(args.video) if args.video else None)
     _print_metrics(metrics, args.json, f"{metrics['task']} demo (shipped {metrics['policy']} policy)")
     return 0
 
@@ -65,9 +96,10 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.config import resolve_config
-    from relmogen.experiments.train import resume, train
+    from relmogen.experiments.train import resume, run_config_file, train
 
     if args.resume:
+        run_config_file(Path(args.resume))
         run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours,
                          overrides=args.set)
     else:
@@ -85,29 +117,23 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
                            args.arm_collision == "on", args.scene, args.device, quiet=args.json,
-                           stochastic=args.stochastic, skip_no_ops=args.skip_no_ops)
+                           stochastic=args.stochastic, skip_no_ops=args.skip_no_ops, checkpoint=args.checkpoint,
+                           video=Path(args.video) if args.video else None)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
     return 0
 
 
 def cmd_export(args: argparse.Namespace) -> int:
     from relmogen.agents.shipped import export_actor
-    from relmogen.experiments.evaluate import load_policy
+    from relmogen.experiments.evaluate import load_checkpoint, resolve_checkpoint
 
-    model, config, run_dir = load_policy(Path(args.run), device="cpu")
-    state_file = latest_checkpoint_state(Path(args.run), run_dir)
-    provenance = {"run": run_dir.name, "command": " ".join(sys.argv), **state_file}
+    checkpoint, run_dir = resolve_checkpoint(Path(args.run), args.checkpoint)
+    model, config = load_checkpoint(checkpoint, run_dir, device="cpu")
+    state = json.loads((checkpoint / "state.json").read_text())
+    provenance = {"run": run_dir.name, "command": " ".join(sys.argv), "checkpoint": checkpoint.name, **state}
     out = export_actor(model, config, Path(args.out), provenance)
     print(f"wrote {out}")
     return 0
-
-
-def latest_checkpoint_state(path: Path, run_dir: Path) -> dict:
-    from relmogen.experiments.train import latest_checkpoint
-
-    checkpoint = path if (path / "model.zip").is_file() else latest_checkpoint(run_dir)
-    state = json.loads((checkpoint / "state.json").read_text())
-    return {"checkpoint": checkpoint.name, **state}
 
 
 def cmd_viz_qmap(args: argparse.Namespace) -> int:
@@ -179,75 +205,120 @@ def _bench_planner(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="relmogen", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                        help="print the package version and exit")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", help="what to do")
+    for add in (_add_tasks, _add_demo, _add_oracle, _add_train, _add_eval, _add_export, _add_viz, _add_report,
+                _add_bench):
+        add(sub)
+    return parser
 
-    demo = sub.add_parser("demo", help="run a short episode, print its metrics and write a GIF")
-    demo.add_argument("--episodes", type=_positive_int, default=1)
-    demo.add_argument("--seed", type=int, default=0)
+
+def _add_tasks(sub) -> None:
+    tasks = sub.add_parser("tasks", help="list the tasks: scene kind, metrics, episode length per control")
+    tasks.add_argument("--json", action="store_true", help="print the list as one JSON array")
+    tasks.set_defaults(func=cmd_tasks)
+
+
+def _add_demo(sub) -> None:
+    demo = sub.add_parser("demo", help="run the shipped policy, print its metrics and write a GIF")
+    demo.add_argument("--episodes", type=_positive_int, default=1, help="episodes to run (default 1)")
+    demo.add_argument("--seed", type=int, default=0, help="seed of the first episode (default 0)")
     demo.add_argument("--out", default="out/demo", help="folder for the GIF (default out/demo)")
+    demo.add_argument("--video", metavar="PATH", default=None,
+                      help="write the first episode annotated (subgoals, rewards, plans) to this .gif or .mp4 "
+                           "instead of the plain GIF")
     demo.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     demo.set_defaults(func=cmd_demo)
 
+
+def _add_oracle(sub) -> None:
     oracle = sub.add_parser("oracle", help="run the scripted (or random) subgoal policy of a task")
-    oracle.add_argument("--task", required=True)
-    oracle.add_argument("--episodes", type=_positive_int, default=10)
-    oracle.add_argument("--policy", choices=["oracle", "random"], default="oracle")
+    oracle.add_argument("--task", required=True, help="task name (relmogen tasks lists them)")
+    oracle.add_argument("--episodes", type=_positive_int, default=10, help="episodes to run (default 10)")
+    oracle.add_argument("--policy", choices=["oracle", "random"], default="oracle",
+                        help="the task's scripted oracle or uniformly random subgoals (default oracle)")
     oracle.add_argument("--control", choices=["subgoal-r", "subgoal-d"], default="subgoal-r",
                         help="subgoal-d: each oracle action executed as the nearest discrete SGP-D action")
-    oracle.add_argument("--image-size", type=_positive_int, default=128)
+    oracle.add_argument("--image-size", type=_positive_int, default=128, help="camera resolution (default 128)")
     oracle.add_argument("--push-frame", choices=["base", "surface"], default="base", help="subgoal-d's push bins")
-    oracle.add_argument("--seed", type=int, default=0)
-    oracle.add_argument("--scene", default=None)
-    oracle.add_argument("--base-planner", default="rrt_connect")
-    oracle.add_argument("--arm-planner", default="rrt_connect")
-    oracle.add_argument("--arm-collision", choices=["on", "off"], default="on")
+    oracle.add_argument("--seed", type=int, default=0, help="seed of the first episode (default 0)")
+    oracle.add_argument("--scene", default=None, help="scene name, e.g. office_B (default: the task's, layout A)")
+    _add_planner_options(oracle, default="rrt_connect")
     oracle.add_argument("--gif", default=None, help="also record one episode to this GIF")
-    oracle.add_argument("--json", action="store_true")
+    oracle.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     oracle.set_defaults(func=cmd_oracle)
 
+
+def _add_planner_options(parser: argparse.ArgumentParser, default: str | None) -> None:
+    """--base-planner, --arm-planner and --arm-collision, shared by oracle and eval."""
+    shown = default or "the run's"
+    parser.add_argument("--base-planner", default=default,
+                        help=f"base planner: rrt_connect, lazy_prm, ompl_rrtconnect or ompl_prm (default {shown})")
+    parser.add_argument("--arm-planner", default=default, help=f"arm planner, same choices (default {shown})")
+    parser.add_argument("--arm-collision", choices=["on", "off"], default="on",
+                        help="collision checking of arm plans (default on)")
+
+
+def _add_train(sub) -> None:
     train = sub.add_parser("train", help="train a policy (SB3), with checkpoints and resume")
-    train.add_argument("--task")
+    train.add_argument("--task", help="task name (relmogen tasks lists them)")
     train.add_argument("--algo", help="relmogen-r, relmogen-d, sac or oac")
-    train.add_argument("--seed", type=int, default=0)
-    train.add_argument("--preset", default="cpu", help="a YAML preset in relmogen/configs/presets")
+    train.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
+    train.add_argument("--preset", default="cpu",
+                       help="a preset of relmogen/configs/presets (cpu, paper, tiny; default cpu) or the path of a "
+                            "YAML file with the same sections")
     train.add_argument("--episodes", type=_positive_int, default=None, help="episode budget (default 1000)")
     train.add_argument("--max-hours", type=float, default=None, help="stop after this much wall-clock time")
-    train.add_argument("--device", default="auto")
-    train.add_argument("--out", default="runs")
+    train.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
+    train.add_argument("--out", default="runs", help="folder the run directory is made in (default runs)")
     train.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                        help="override a preset value, e.g. --set algo.batch_size=32 --set env.n_envs=4; with --resume, "
                             "learning parameters only (e.g. algo.exploration_final_eps=0.2, algo.buffer_size=50000)")
-    train.add_argument("--resume", default=None, metavar="RUN_DIR")
-    train.add_argument("--quiet", action="store_true")
+    train.add_argument("--resume", default=None, metavar="RUN_DIR",
+                       help="continue this run from its latest checkpoint instead of starting one")
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(func=cmd_train)
 
+
+def _add_eval(sub) -> None:
     evaluate = sub.add_parser("eval", help="evaluate a trained policy")
-    evaluate.add_argument("path", metavar="RUN_DIR_OR_CHECKPOINT")
-    evaluate.add_argument("--episodes", type=_positive_int, default=100)
-    evaluate.add_argument("--seed", type=int, default=100_000)
-    evaluate.add_argument("--base-planner", default=None)
-    evaluate.add_argument("--arm-planner", default=None)
-    evaluate.add_argument("--arm-collision", choices=["on", "off"], default="on")
+    evaluate.add_argument("path", metavar="RUN_DIR_OR_CHECKPOINT", help="a run directory or a checkpoint folder")
+    evaluate.add_argument("--checkpoint", default="latest", metavar=CHECKPOINT_METAVAR,
+                          help="which model of the run: its latest checkpoint (default), the best periodic "
+                               "evaluation during training, or a checkpoint folder")
+    evaluate.add_argument("--episodes", type=_positive_int, default=100, help="episodes (default 100)")
+    evaluate.add_argument("--seed", type=int, default=100_000,
+                          help="seed of the first episode; the others follow (default 100000)")
+    _add_planner_options(evaluate, default=None)
     evaluate.add_argument("--scene", default=None, help="A or B (or a full scene name)")
-    evaluate.add_argument("--device", default="auto")
+    evaluate.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
     evaluate.add_argument("--stochastic", action="store_true",
                           help="sample SGP-R/SAC actions instead of the deterministic mean; "
                                "SGP-D acts epsilon-greedy at its final training epsilon")
     evaluate.add_argument("--skip-no-ops", action="store_true",
                           help="SGP-D only, a test-time rule reported as its own policy: a subgoal after which the "
                                "camera image and local map did not change is not chosen again until they do")
-    evaluate.add_argument("--json", action="store_true")
+    evaluate.add_argument("--video", metavar="PATH", default=None,
+                          help="record the first episode, annotated, to this .gif or .mp4")
+    evaluate.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     evaluate.set_defaults(func=cmd_eval)
 
+
+def _add_export(sub) -> None:
     export = sub.add_parser("export", help="write a run's trained SGP-R/SAC actor as a small shipped policy")
-    export.add_argument("run", metavar="RUN_DIR_OR_CHECKPOINT")
+    export.add_argument("run", metavar="RUN_DIR_OR_CHECKPOINT", help="a run directory or a checkpoint folder")
+    export.add_argument("--checkpoint", default="latest", metavar=CHECKPOINT_METAVAR,
+                        help="which model of the run (default latest)")
     export.add_argument("--out", required=True, help="folder to write config.yaml, actor.pt, provenance.json")
     export.set_defaults(func=cmd_export)
 
+
+def _add_viz(sub) -> None:
     viz = sub.add_parser("viz", help="figures of trained policies")
-    viz_sub = viz.add_subparsers(dest="figure", required=True)
+    viz_sub = viz.add_subparsers(dest="figure", required=True, metavar="FIGURE", help="which figure")
     qmap = viz_sub.add_parser("qmap", help="SGP-D Q maps over the RGB frame and the local map (paper Fig. A.2)")
-    qmap.add_argument("checkpoint", metavar="RUN_DIR_OR_CHECKPOINT")
+    qmap.add_argument("checkpoint", metavar="RUN_DIR_OR_CHECKPOINT", help="a relmogen-d run or checkpoint folder")
     qmap.add_argument("--task", default=None, help="task to show (default: the one it was trained on)")
     qmap.add_argument("--out", default="out/qmap", help="folder for the PNGs (default out/qmap)")
     qmap.add_argument("--states", type=_positive_int, default=4, help="figures to draw (default 4)")
@@ -256,18 +327,22 @@ def build_parser() -> argparse.ArgumentParser:
     qmap.add_argument("--drive", choices=("greedy", "oracle"), default="greedy",
                       help="who acts: the policy (every --stride-th state drawn) or the task's oracle "
                            "(the state before each of its pushes drawn, its cell outlined and ranked)")
-    qmap.add_argument("--device", default="auto")
+    qmap.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
     qmap.set_defaults(func=cmd_viz_qmap)
 
+
+def _add_report(sub) -> None:
     report = sub.add_parser("report", help="table (mean/std/max over seeds) and curves of runs")
-    report.add_argument("runs", nargs="*", metavar="RUN_DIR")
+    report.add_argument("runs", nargs="*", metavar="RUN_DIR", help="run directories, one or more seeds per algorithm")
     report.add_argument("--out", help="where table.md, table.json and curves.png go")
     report.add_argument("--table1", metavar="DIR", help="write DIR/README.md, the paper's Table I beside ours, "
                                                         "from DIR/*/table.json (one report per task and algorithm)")
     report.set_defaults(func=cmd_report)
 
+
+def _add_bench(sub) -> None:
     bench = sub.add_parser("bench", help="speed benchmarks")
-    bench.add_argument("what", choices=["env", "planner", "train"])
+    bench.add_argument("what", choices=["env", "planner", "train"], help="what to time")
     bench.add_argument("--task", default=None,
                        help="env: task of the joint-velocity steps (PointNav); train: task (PushDoorNav)")
     bench.add_argument("--updates", type=_positive_int, default=10, help="train: gradient steps timed per run")
@@ -279,10 +354,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="env: lifted steps of each kind, base and arm (0 skips them)")
     bench.add_argument("--problems", type=_positive_int, default=PLANNER_PROBLEMS_DEFAULT,
                        help=f"planner: problems per category (default {PLANNER_PROBLEMS_DEFAULT})")
-    bench.add_argument("--seed", type=int, default=0)
-    bench.add_argument("--json", action="store_true")
+    bench.add_argument("--seed", type=int, default=0, help="seed of the problems or samples (default 0)")
+    bench.add_argument("--json", action="store_true", help="print the results as one JSON object")
     bench.set_defaults(func=cmd_bench)
-    return parser
 
 
 def _positive_int(text: str) -> int:

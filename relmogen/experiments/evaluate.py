@@ -16,6 +16,14 @@ measure of imitation on the states the policy itself reaches, which demonstratio
 
 The planners, arm collision checking and scene can differ from training: that is how the
 paper's planner-swap (Table II) and scene-transfer results are measured.
+
+A run is evaluated from its latest checkpoint, its best one (``checkpoints/best``, the best
+periodic evaluation during training) or a checkpoint folder. The result names the checkpoint
+(``checkpoint``: its folder name, ``checkpoint_episode``), the evaluation's episode seeds
+(``eval_seed`` up to ``eval_seed + episodes - 1``) and the run's ``training_seed``; its file in
+``RUN/eval/`` is named after the setting, the checkpoint and ``eval_seed``, so evaluations of
+other checkpoints or seeds sit beside it. ``video`` records the first episode
+(``relmogen.visualisation.video``).
 """
 
 from __future__ import annotations
@@ -36,6 +44,8 @@ from relmogen.experiments.config import TrainConfig, read_config
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
 from relmogen.experiments.train import env_kwargs, latest_checkpoint, model_class, resolve_device
+from relmogen.visualisation.video import VIDEO_FPS, AnnotatedRecorder
+from relmogen.visualisation.views import check_animation_path, write_animation
 
 
 @contextlib.contextmanager
@@ -55,7 +65,10 @@ def seeded_action_sampling(seed: int) -> Iterator[None]:
 
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
-                   quiet: bool = False, stochastic: bool = False, skip_no_ops: bool = False) -> dict:
+                   quiet: bool = False, stochastic: bool = False, skip_no_ops: bool = False,
+                   video: Path | None = None) -> dict:
+    """``episodes`` episodes with seeds ``seed, seed + 1, ...``: the settings and the aggregated
+    metrics; ``video`` (a .gif or .mp4 path) records the first one with overlays."""
     if skip_no_ops and config.algo != "relmogen-d":
         raise ValueError(f"--skip-no-ops excludes a discrete subgoal that changed nothing; it needs relmogen-d, "
                          f"not {config.algo}")
@@ -70,15 +83,16 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
         on_reset = act.reset
     else:
         act, on_reset = (lambda obs: model.predict(obs, deterministic=not stochastic)[0]), None
+    recorder = AnnotatedRecorder() if video is not None else None
     try:
         with seeded_action_sampling(seed):
             records = run_episodes(env, act, episodes, seed, quiet, on_reset=on_reset,
-                                   description=f"eval {config.task}")
+                                   description=f"eval {config.task}", first_recorder=recorder)
     finally:
         env.close()
     policy = ("stochastic" if stochastic else "deterministic") + ("-skip-no-ops" if skip_no_ops else "")
-    settings = {"task": config.task, "algo": config.algo, "seed": config.seed, "scene": env.scene.name,
-                "policy": policy}
+    settings = {"task": config.task, "algo": config.algo, "training_seed": config.seed, "eval_seed": seed,
+                "scene": env.scene.name, "policy": policy}
     if stochastic and config.algo == "relmogen-d":
         settings["epsilon"] = float(model.exploration_rate)
     if config.control != "joint":
@@ -88,35 +102,93 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     result = {**settings, **aggregate(records)}
     if agreement is not None:
         result["oracle_agreement"] = float(np.mean(agreement.matches))
+    if recorder is not None:
+        result["video"] = str(write_animation(recorder.frames, video, fps=VIDEO_FPS))
     return result
 
 
-def load_policy(path: Path, device: str = "auto"):
-    """A run directory (its latest checkpoint) or a checkpoint folder -> (model, config)."""
+CHECKPOINT_CHOICES = ("latest", "best")
+MISSING_CHECKPOINT = {
+    "latest": "has no checkpoint yet; train it for run.checkpoint_every_episodes episodes first",
+    "best": "has no best checkpoint yet (the first periodic evaluation writes it); use --checkpoint latest",
+}
+
+
+def resolve_checkpoint(path: Path, checkpoint: str = "latest") -> tuple[Path, Path]:
+    """(checkpoint folder, run directory) of ``path``: a checkpoint folder, or a run directory
+    with ``checkpoint`` one of ``CHECKPOINT_CHOICES`` or the path of a checkpoint folder (or the
+    name of one in the run's ``checkpoints/``)."""
+    from relmogen.experiments.train import run_config_file
+
     path = Path(path)
     if (path / "model.zip").is_file():
-        checkpoint, run_dir = path, path.parent.parent
+        if checkpoint != "latest":
+            raise ValueError(f"{path} is a checkpoint folder; give its run directory to choose --checkpoint "
+                             f"{checkpoint}")
+        run_config_file(path.parent.parent)
+        return path, path.parent.parent
+    run_config_file(path)
+    return _run_checkpoint(path, checkpoint), path
+
+
+def _run_checkpoint(run_dir: Path, checkpoint: str) -> Path:
+    from relmogen.experiments.train import CHECKPOINTS, best_checkpoint
+
+    if checkpoint in CHECKPOINT_CHOICES:
+        folder = (latest_checkpoint if checkpoint == "latest" else best_checkpoint)(run_dir)
+        missing = MISSING_CHECKPOINT[checkpoint]
     else:
-        checkpoint, run_dir = latest_checkpoint(path), path
-        if checkpoint is None:
-            raise ValueError(f"{path} has no checkpoint (expected {path}/checkpoints/latest)")
+        candidates = [Path(checkpoint), run_dir / CHECKPOINTS / checkpoint]
+        folder = next((c for c in candidates if (c / "model.zip").is_file()), None)
+        missing = f"has no checkpoint {checkpoint!r}; give latest, best or a folder holding a model.zip"
+    if folder is None:
+        raise ValueError(f"{run_dir} {missing}")
+    return folder
+
+
+def load_checkpoint(folder: Path, run_dir: Path, device: str = "auto"):
+    """The model in a checkpoint folder and its run's config."""
+    from relmogen.experiments.train import require_device
+
     config = read_config(run_dir / "config.yaml")
     th.set_num_threads(config.run.torch_threads)  # one thread per process unless the config says otherwise
-    model = model_class(config).load(checkpoint / "model.zip", device=resolve_device(device))
-    return model, config, run_dir
+    model = model_class(config).load(Path(folder) / "model.zip", device=resolve_device(require_device(device)))
+    return model, config
+
+
+def load_policy(path: Path, device: str = "auto", checkpoint: str = "latest"):
+    """A run directory (its ``checkpoint``, see ``resolve_checkpoint``) or a checkpoint folder ->
+    (model, config, run directory)."""
+    folder, run_dir = resolve_checkpoint(path, checkpoint)
+    return (*load_checkpoint(folder, run_dir, device), run_dir)
 
 
 def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | None = None,
                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                   device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False,
-                  skip_no_ops: bool = False) -> dict:
-    model, config, run_dir = load_policy(path, device)
+                  skip_no_ops: bool = False, checkpoint: str = "latest", video: Path | None = None) -> dict:
+    """``evaluate_model`` on a run's checkpoint (``resolve_checkpoint``), saved in ``RUN/eval/``
+    under ``evaluation_file_name``."""
+    if video is not None:
+        check_animation_path(video)
+    folder, run_dir = resolve_checkpoint(path, checkpoint)
+    model, config = load_checkpoint(folder, run_dir, device)
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
-                            stochastic, skip_no_ops)
+                            stochastic, skip_no_ops, video)
+    state = json.loads((folder / "state.json").read_text()) if (folder / "state.json").is_file() else {}
+    result = {**result, "checkpoint": folder.name, "checkpoint_episode": state.get("episodes")}
     if save:
-        name = f"eval_{result.get('scene')}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_" \
-               f"collision-{'on' if arm_collision else 'off'}_{episodes}ep" \
-               f"{'_stochastic' if stochastic else ''}{'_skip_no_ops' if skip_no_ops else ''}.json"
         (run_dir / "eval").mkdir(exist_ok=True)
-        (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
+        (run_dir / "eval" / evaluation_file_name(result, arm_collision)).write_text(json.dumps(result, indent=1))
     return result
+
+
+def evaluation_file_name(result: dict, arm_collision: bool) -> str:
+    """``eval_<scene>_<base planner>_<arm planner>_collision-<on|off>_<N>ep[_stochastic][_skip_no_ops]
+    _<checkpoint folder>_seed<eval seed>.json``; ``na`` for the planners of joint control."""
+    policy = result["policy"]
+    return (f"eval_{result.get('scene')}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_"
+            f"collision-{'on' if arm_collision else 'off'}_{result['episodes']}ep"
+            f"{'_stochastic' if policy.startswith('stochastic') else ''}"
+            f"{'_skip_no_ops' if policy.endswith('skip-no-ops') else ''}"
+            f"_{result['checkpoint']}_seed{result['eval_seed']}.json")

@@ -1,8 +1,11 @@
 """``relmogen report``: the paper's table (mean / std / max over seeds) and training curves.
 
-Each run directory contributes its final evaluation (the newest ``eval/*.json`` with arm
-collision checking on, else the last periodic evaluation) and its ``episodes.csv`` curve.
-Curves are averaged over seeds on a common grid of environment episodes (the paper's x-axis).
+Each run directory contributes its final evaluation (the newest ``eval/*.json`` of its latest
+checkpoint with arm collision checking on, else the last periodic evaluation) and its
+``episodes.csv`` curve. Curves are averaged over seeds on a common grid of environment episodes
+(the paper's x-axis); a panel without data says so. Tables show a task's own metrics only
+(``relmogen.experiments.task_catalogue``): ``n/a`` marks a metric another task in the same table
+has, and a run without any evaluation gets a line saying how to make one.
 
 ``table.json`` holds the rows of ``table.md`` (the reference table, then every evaluation
 setting) as data, for ``relmogen.experiments.table1`` to gather into the paper's Table I.
@@ -23,8 +26,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from relmogen.experiments.config import read_config  # noqa: E402
+from relmogen.experiments.task_catalogue import task_evaluation_keys  # noqa: E402
 
-TABLE_METRICS = ("success_rate", "spl", "closed_5", "closed_10")
+TABLE_METRICS = ("success_rate", "spl", "closed_5", "closed_10")  # every evaluation has them, 0 if not the task's
 CURVE_SMOOTHING = 20  # episodes in the moving average of each seed's curve
 
 
@@ -33,13 +37,25 @@ def policy_of(evaluation: dict) -> str:
     return evaluation.get("policy", "deterministic")
 
 
+def checkpoint_of(evaluation: dict) -> str:
+    """``best`` for an evaluation of ``checkpoints/best``, else ``latest`` (any other checkpoint
+    folder: the run's latest unless chosen by path; evaluations older than the field)."""
+    return "best" if str(evaluation.get("checkpoint", "")).startswith("best_") else "latest"
+
+
+def has_metric(task: str, metric: str) -> bool:
+    """Whether ``metric`` belongs in ``task``'s rows: not one of ``TABLE_METRICS`` that the task
+    lacks (no ``closed_*`` for PointNav, no ``spl`` for ArrangeKitchenMM)."""
+    return metric not in TABLE_METRICS or metric in task_evaluation_keys(task)
+
+
 def final_evaluation(run_dir: Path) -> dict | None:
     """The run's reference evaluation: arm collision checking on, with the planners it was
     trained with, the most episodes, then the newest (planner-swap and scene-transfer
     evaluations sit beside it and are reported separately); else the last periodic one."""
     config = read_config(run_dir / "config.yaml")
     evals = [read_evaluation(p) | {"_mtime": p.stat().st_mtime} for p in (run_dir / "eval").glob("*collision-on*.json")]
-    evals = [e for e in evals if policy_of(e) == "deterministic"]
+    evals = [e for e in evals if policy_of(e) == "deterministic" and checkpoint_of(e) == "latest"]
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
                      and (config.env.scene is None or e.get("scene") == config.env.scene)]
@@ -72,11 +88,17 @@ def summarise(values: list[float]) -> dict[str, float]:
 
 
 def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
+    from relmogen.experiments.train import run_config_file
+
+    run_dirs = [Path(run_dir) for run_dir in run_dirs]
+    for run_dir in run_dirs:
+        run_config_file(run_dir)
     groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
-    for run_dir in map(Path, run_dirs):
+    for run_dir in run_dirs:
         config = read_config(run_dir / "config.yaml")
         groups[(config.task, config.algo)].append({
             "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir), "assisted": is_assisted(config),
+            "eval_every": config.run.eval_every_episodes,
             "all_evals": [read_evaluation(p) for p in sorted((run_dir / "eval").glob("*.json"))],
             "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
         })
@@ -111,7 +133,7 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
     return {key: np.array([_number(r.get(key)) for r in rows]) for key in CURVE_KEYS}
 
 
-SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "policy", "eval_episodes")
+SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "policy", "checkpoint", "eval_episodes")
 SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction",
                    "repeated_subgoal_rate", "unchanged_view_rate", "oracle_agreement")
 ROW_METRICS = TABLE_METRICS + tuple(metric for metric in SETTING_METRICS if metric not in TABLE_METRICS)
@@ -122,7 +144,8 @@ def evaluation_setting(evaluation: dict) -> dict:
     """The conditions an evaluation ran under, keyed as ``SETTING_KEYS``; None where it records none."""
     return {"scene": evaluation.get("scene"), "base_planner": evaluation.get("base_planner"),
             "arm_planner": evaluation.get("arm_planner"), "arm_collision": evaluation.get("arm_collision", True),
-            "policy": policy_of(evaluation), "eval_episodes": evaluation.get("episodes")}
+            "policy": policy_of(evaluation), "checkpoint": checkpoint_of(evaluation),
+            "eval_episodes": evaluation.get("episodes")}
 
 
 def _shared_setting(evaluations: list[dict]) -> dict:
@@ -132,11 +155,12 @@ def _shared_setting(evaluations: list[dict]) -> dict:
             for key in SETTING_KEYS}
 
 
-def _metric_summaries(evaluations: list[dict]) -> dict[str, dict | None]:
-    """Per metric of ``ROW_METRICS``: mean / std / max over the evaluations reporting it, else None."""
+def _metric_summaries(task: str, evaluations: list[dict]) -> dict[str, dict | None]:
+    """Per metric of ``ROW_METRICS``: mean / std / max over the evaluations reporting it; None
+    when none does or the task has no such metric (``has_metric``)."""
     summaries = {}
     for metric in ROW_METRICS:
-        values = [evaluation[metric] for evaluation in evaluations if metric in evaluation]
+        values = [evaluation[metric] for evaluation in evaluations if metric in evaluation and has_metric(task, metric)]
         summary = summarise(values) if values else None
         summaries[metric] = {key: summary[key] for key in ("mean", "std", "max")} if summary else None
     return summaries
@@ -156,7 +180,7 @@ def _row(task: str, algo: str, reference: bool, runs: list[dict], evaluations: l
     """One table row: its setting, seed count, assisted flag, training budget and metric summaries."""
     return {"task": task, "algorithm": algo, "reference": reference, **setting, "seeds": len(runs),
             "assisted": any(run.get("assisted", False) for run in runs), **_budget(runs),
-            **_metric_summaries(evaluations)}
+            **_metric_summaries(task, evaluations)}
 
 
 def reference_rows(groups: dict[tuple[str, str], list[dict]]) -> list[dict]:
@@ -203,6 +227,17 @@ def summary_cell(summary: dict | None) -> str:
     return "-" if summary is None else f"{summary['mean']:.2f} / {summary['std']:.2f} / {summary['max']:.2f}"
 
 
+def metric_cell(row: dict, metric: str) -> str:
+    """``summary_cell`` of a row's metric, ``n/a`` where its task has no such metric."""
+    return summary_cell(row[metric]) if has_metric(row["task"], metric) else "n/a"
+
+
+def shown_metrics(rows: list[dict], metrics: tuple[str, ...]) -> list[str]:
+    """The ``metrics`` some row's task has: the columns of a table of ``rows``."""
+    tasks = {row["task"] for row in rows}
+    return [metric for metric in metrics if any(has_metric(task, metric) for task in tasks)]
+
+
 def hours_cell(hours: float | None) -> str:
     """A markdown cell for hours: two decimals, ``-`` for None."""
     return "-" if hours is None else f"{hours:.2f}"
@@ -221,9 +256,10 @@ def markdown_grid(header: list[str], lines: list[list[str]]) -> str:
 
 def reference_table(rows: list[dict]) -> str:
     """The markdown table of the reference rows, with a note on what the cells are."""
-    header = ["task", "algorithm", "training", "seeds", *TABLE_METRICS, "episodes", "wall-clock h", "CPU h"]
+    metrics = shown_metrics(rows, TABLE_METRICS)
+    header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "wall-clock h", "CPU h"]
     lines = [[row["task"], row["algorithm"], training_of(row), str(row["seeds"]),
-              *(summary_cell(row[metric]) for metric in TABLE_METRICS),
+              *(metric_cell(row, metric) for metric in metrics),
               str(int(row["episodes"])), hours_cell(row["wall_hours"]), hours_cell(row["cpu_hours"])] for row in rows]
     return (markdown_grid(header, lines) + "\n\nCells are mean / std / max over seeds of the final evaluation "
             "(deterministic policy). episodes, wall-clock h and CPU h (trainer plus environment workers) are means "
@@ -233,19 +269,38 @@ def reference_table(rows: list[dict]) -> str:
 def settings_table(rows: list[dict]) -> str:
     """The markdown table of the evaluation-setting rows: mean / std / max over the seeds
     evaluated with each setting."""
-    header = ["task", "algorithm", "training", *SETTING_KEYS, "seeds", *SETTING_METRICS]
+    metrics = shown_metrics(rows, SETTING_METRICS)
+    header = ["task", "algorithm", "training", *SETTING_KEYS, "seeds", *metrics]
     lines = [[row["task"], row["algorithm"], training_of(row), *(text_cell(row[key]) for key in SETTING_KEYS),
-              str(row["seeds"]), *(summary_cell(row[metric]) for metric in SETTING_METRICS)] for row in rows]
+              str(row["seeds"]), *(metric_cell(row, metric) for metric in metrics)] for row in rows]
     return markdown_grid(header, lines)
 
 
+def missing_evaluation_hints(groups: dict[tuple[str, str], list[dict]]) -> list[str]:
+    """A line per run without any evaluation, saying how to make one."""
+    return [f"- {run['run_dir']} has no evaluation yet: run `relmogen eval {run['run_dir']}` (training also "
+            f"evaluates every {run['eval_every']} episodes)"
+            for _, runs in sorted(groups.items()) for run in runs if run["eval"] is None]
+
+
+def trailing_mean(values: np.ndarray, window: int) -> np.ndarray:
+    """Each value's mean with up to ``window - 1`` values before it, NaN ones left out (NaN
+    where all of them are NaN)."""
+    finite = np.isfinite(values)
+    sums = np.concatenate([[0.0], np.cumsum(np.where(finite, values, 0.0))])
+    counts = np.concatenate([[0], np.cumsum(finite)])
+    end = np.arange(1, len(values) + 1)
+    start = np.maximum(end - window, 0)
+    total, count = sums[end] - sums[start], counts[end] - counts[start]
+    return np.divide(total, count, out=np.full(len(values), np.nan), where=count > 0)
+
+
 def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray) -> np.ndarray:
-    episodes, values = curve["episode"], curve[key]
-    if len(values) == 0:
+    smooth = trailing_mean(curve[key], CURVE_SMOOTHING)
+    known = np.isfinite(smooth) & np.isfinite(curve["episode"])
+    if not known.any():
         return np.full(len(grid), np.nan)
-    kernel = min(CURVE_SMOOTHING, len(values))
-    smooth = np.convolve(values, np.ones(kernel) / kernel, mode="valid")
-    return np.interp(grid, episodes[kernel - 1:], smooth, left=np.nan, right=np.nan)
+    return np.interp(grid, curve["episode"][known], smooth[known], left=np.nan, right=np.nan)
 
 
 PANELS = (("success", "episode", "success rate", "environment episodes"),
@@ -271,9 +326,13 @@ def _counts_items(runs: list[dict]) -> bool:
     return any(np.isfinite(r["curve"]["closed_10"]).any() for r in runs)
 
 
-def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
+EMPTY_PANEL_NOTE = {"base_fraction": "no subgoals logged\n(joint-velocity runs)"}
+
+
+def curve_figure(groups: dict[tuple[str, str], list[dict]]):
     """Per task: success rate and return against episodes (the paper's x-axis) and return
-    against wall-clock hours (the equal-budget comparison); mean and std over seeds."""
+    against wall-clock hours (the equal-budget comparison); mean and std over seeds. A curve
+    of a single point is drawn as a marker; a panel without any data says why."""
     tasks = sorted({task for task, _ in groups})
     fig, axes = plt.subplots(len(PANELS), len(tasks), figsize=(5.5 * len(tasks), 13), squeeze=False)
     for column, task in enumerate(tasks):
@@ -286,13 +345,27 @@ def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
                     key, ylabel = "closed_10", "items closed (10 deg / 10 cm)"
                 grid, mean, std = _mean_and_std(runs, key, axis_key)
                 ax = axes[row, column]
-                ax.plot(grid, mean, label=f"{algo} ({len(runs)} seeds)")
+                ax.plot(grid, mean, label=f"{algo} ({len(runs)} seeds)",
+                        marker="o" if np.isfinite(mean).sum() == 1 else None)
                 ax.fill_between(grid, mean - std, mean + std, alpha=0.25)
                 ax.set_xlabel(xlabel)
                 ax.set_ylabel(ylabel)
         axes[0, column].set_title(task)
         axes[0, column].legend()
+        for row, (key, *_) in enumerate(PANELS):
+            _note_if_empty(axes[row, column], EMPTY_PANEL_NOTE.get(key, "no episodes logged yet"))
     fig.tight_layout()
+    return fig
+
+
+def _note_if_empty(ax, note: str) -> None:
+    if not any(np.isfinite(line.get_ydata()).any() for line in ax.get_lines()):
+        ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes, color="grey")
+
+
+def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
+    """``curve_figure`` saved as a PNG."""
+    fig = curve_figure(groups)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -308,7 +381,9 @@ def write_report(run_dirs: list[Path], out: Path) -> dict[str, str]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     references, settings = reference_rows(groups), setting_rows(groups)
-    table = reference_table(references) + "\n\n## Every evaluation setting\n\n" + settings_table(settings) + "\n"
+    hints = "\n".join(missing_evaluation_hints(groups))
+    table = (reference_table(references) + (f"\n\n{hints}" if hints else "")
+             + "\n\n## Every evaluation setting\n\n" + settings_table(settings) + "\n")
     (out / "table.md").write_text(table + "\n")
     (out / "table.json").write_text(json.dumps(table_json(references + settings), indent=1) + "\n")
     curves = plot_curves(groups, out / "curves.png")

@@ -34,53 +34,78 @@ class EpisodeRecord:
 FRAME_PERIOD_S = 0.4  # simulated seconds between video frames while a subgoal executes
 
 
+class FrameRecorder:
+    """Third-person frames of one episode: after the reset, every ``FRAME_PERIOD_S`` of simulated
+    time while a subgoal executes (the environment's ``frame_hook``) and after each step.
+    ``relmogen.visualisation.video.AnnotatedRecorder`` draws what the policy chose on them."""
+
+    def __init__(self) -> None:
+        self.frames: list[np.ndarray] = []
+        self.env: RelmogenEnv | None = None
+        self.last_frame_time = 0.0
+
+    def start(self, env: RelmogenEnv, obs: dict) -> None:
+        """After the reset: the first frame, and the hook for frames while subgoals execute."""
+        self.env, self.last_frame_time = env, env.sim_time
+        env.frame_hook = self.during_step
+        self.frames.append(self.frame())
+
+    def before_step(self, obs: dict, action) -> None:
+        """The action the policy chose on ``obs``, before the environment executes it."""
+
+    def during_step(self) -> None:
+        if self.env.sim_time - self.last_frame_time >= FRAME_PERIOD_S:
+            self.frames.append(self.frame())
+            self.last_frame_time = self.env.sim_time
+
+    def after_step(self, obs: dict, reward: float, info: dict) -> None:
+        self.frames.append(self.frame())
+
+    def frame(self) -> np.ndarray:
+        return self.env.third_person_image()
+
+
 def run_episode(env: RelmogenEnv, act: Policy, seed: int, record_frames: bool = False,
-                on_reset: Callable[[], None] | None = None) -> EpisodeRecord:
+                on_reset: Callable[[], None] | None = None, recorder: FrameRecorder | None = None) -> EpisodeRecord:
+    """One episode; ``recorder`` (with ``record_frames``, a plain ``FrameRecorder``) keeps its frames."""
+    recorder = recorder or (FrameRecorder() if record_frames else None)
     obs, _ = env.reset(seed=seed)
     if on_reset is not None:
         on_reset()
-    frames = [env.third_person_image()] if record_frames else []
-    if record_frames:
-        env.frame_hook = _frame_recorder(env, frames)
+    if recorder is not None:
+        recorder.start(env, obs)
     subgoals, done, info, previous = [], False, {}, None
     while not done:
         action = act(obs)
+        if recorder is not None:
+            recorder.before_step(obs, action)
         before = obs
-        obs, _, terminated, truncated, info = env.step(action)
+        obs, reward, terminated, truncated, info = env.step(action)
         done = terminated or truncated
         if "subgoal_type" in info:
             subgoals.append({k: info[k] for k in ("subgoal_type", "plan_found", "reason", "planner")})
             subgoals[-1]["repeat"] = previous is not None and np.array_equal(action, previous)
             subgoals[-1]["unchanged_view"] = view_unchanged(before, obs)
         previous = action
-        if record_frames:
-            frames.append(env.third_person_image())
+        if recorder is not None:
+            recorder.after_step(obs, reward, info)
     env.frame_hook = None
+    frames = recorder.frames if recorder is not None else []
     return EpisodeRecord(info["metrics"], env.episode_return, env.elapsed_steps, info["termination"], subgoals, frames)
-
-
-def _frame_recorder(env: RelmogenEnv, frames: list) -> Callable[[], None]:
-    last = {"time": env.sim_time}
-
-    def record() -> None:
-        if env.sim_time - last["time"] >= FRAME_PERIOD_S:
-            frames.append(env.third_person_image())
-            last["time"] = env.sim_time
-
-    return record
 
 
 def run_episodes(env: RelmogenEnv, act: Policy, episodes: int, seed: int = 0, quiet: bool = False,
                  on_reset: Callable[[], None] | None = None, description: str = "episodes",
-                 record_first: bool = False) -> list[EpisodeRecord]:
+                 record_first: bool = False, first_recorder: FrameRecorder | None = None) -> list[EpisodeRecord]:
     """``episodes`` episodes with seeds ``seed, seed + 1, ...``; ``record_first`` keeps the
-    video frames of the first one."""
+    video frames of the first one, ``first_recorder`` records it with that recorder instead."""
     records = []
     with Progress(disable=quiet, transient=True) as progress:
         bar = progress.add_task(description, total=episodes)
         for episode in range(episodes):
-            record = record_first and episode == 0
-            records.append(run_episode(env, act, seed + episode, record_frames=record, on_reset=on_reset))
+            first = episode == 0
+            records.append(run_episode(env, act, seed + episode, record_frames=record_first and first,
+                                       on_reset=on_reset, recorder=first_recorder if first else None))
             progress.advance(bar)
     return records
 

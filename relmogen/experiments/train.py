@@ -8,12 +8,15 @@ and the replay (gigabytes for SGP-R) every ``run.replay_every_episodes``. Each i
 fresh folder and published by atomically replacing ``checkpoints/latest`` /
 ``checkpoints/latest_replay``, so ``kill -9`` at any moment leaves the previous ones intact;
 ``--resume RUN_DIR`` continues from them: at most one model interval of learning is lost, and
-the transitions collected since the last replay save.
+the transitions collected since the last replay save. ``checkpoints/best`` names, the same way,
+a copy of the model (no replay) at the best periodic evaluation so far; its ``state.json`` holds
+that evaluation.
 """
 
 from __future__ import annotations
 
 import csv
+import difflib
 import json
 import os
 import shutil
@@ -40,6 +43,7 @@ from relmogen.experiments.config import TrainConfig, override_config, read_confi
 CHECKPOINTS = "checkpoints"
 LATEST = "latest"  # a file naming the newest complete model checkpoint folder
 LATEST_REPLAY = "latest_replay"  # a file naming the newest complete replay folder
+BEST = "best"  # a file naming the model folder of the best periodic evaluation so far
 REPLAY_FILE = "replay_buffer.pkl"
 EPISODE_FIELDS = ["episode", "timesteps", "wall_time_s", "return", "length", "success",
                   "base_fraction", "subgoal_success",  # subgoal controls only
@@ -50,6 +54,21 @@ SUCCESS_WINDOW = 20
 def resolve_device(device: str) -> str:
     if device == "auto":
         return "cuda" if th.cuda.is_available() else "cpu"
+    return device
+
+
+def require_device(device: str) -> str:
+    """``device`` when this machine has it: ``auto``, ``cpu``, ``cuda[:N]`` with CUDA, ``mps`` with
+    MPS. An accelerator that is missing is an error, not a silent run on the CPU."""
+    if device == "auto":
+        return device
+    try:
+        kind = th.device(device).type
+    except RuntimeError as error:
+        raise ValueError(f"unknown device {device!r}; use auto, cpu or cuda") from error
+    available = {"cpu": True, "cuda": th.cuda.is_available(), "mps": th.backends.mps.is_available()}
+    if not available.get(kind, False):
+        raise ValueError(f"device {device!r} is not available on this machine; use --device cpu or --device auto")
     return device
 
 
@@ -121,11 +140,33 @@ def model_class(config: TrainConfig):
 
 # ------------------------------------------------------------------------ checkpoints
 def latest_checkpoint(run_dir: Path) -> Path | None:
-    pointer = Path(run_dir) / CHECKPOINTS / LATEST
+    return _pointed_checkpoint(run_dir, LATEST)
+
+
+def best_checkpoint(run_dir: Path) -> Path | None:
+    """The model of the best periodic evaluation so far (``TrainingMonitor.evaluate``), or None."""
+    return _pointed_checkpoint(run_dir, BEST)
+
+
+def _pointed_checkpoint(run_dir: Path, pointer_name: str) -> Path | None:
+    pointer = Path(run_dir) / CHECKPOINTS / pointer_name
     if not pointer.is_file():
         return None
     folder = pointer.parent / pointer.read_text().strip()
     return folder if (folder / "model.zip").is_file() else None
+
+
+def best_evaluation(run_dir: Path) -> dict | None:
+    """The periodic evaluation recorded with ``checkpoints/best``, or None before the first one."""
+    checkpoint = best_checkpoint(run_dir)
+    return json.loads((checkpoint / "state.json").read_text()).get("evaluation") if checkpoint else None
+
+
+def evaluation_rank(evaluation: dict) -> tuple[float, float, float]:
+    """Orders evaluations, best last: success rate, then items closed (``closed_10``), then mean
+    return, so ties and tasks that never succeed are decided by the next figure."""
+    return (evaluation.get("success_rate", 0.0), evaluation.get("closed_10", 0.0),
+            evaluation.get("mean_return", -np.inf))
 
 
 def latest_replay(run_dir: Path) -> Path | None:
@@ -147,6 +188,13 @@ def write_checkpoint(run_dir: Path, model, state: dict, with_replay: bool = True
         _write_folder(root, f"replay_{state['episodes']:07d}", LATEST_REPLAY,
                       lambda folder: model.save_replay_buffer(folder / REPLAY_FILE), state)
     return _write_folder(root, f"episode_{state['episodes']:07d}", LATEST,
+                         lambda folder: model.save(folder / "model.zip"), state)
+
+
+def write_best_checkpoint(run_dir: Path, model, state: dict) -> Path:
+    """The model alone (no replay) as ``checkpoints/best_<episode>``, published atomically through
+    ``checkpoints/best``; ``state["evaluation"]`` is the evaluation that made it the best."""
+    return _write_folder(Path(run_dir) / CHECKPOINTS, f"best_{state['episodes']:07d}", BEST,
                          lambda folder: model.save(folder / "model.zip"), state)
 
 
@@ -266,22 +314,28 @@ class TrainingMonitor(BaseCallback):
             self.evaluate(episode)
 
     def evaluate(self, episode: int) -> None:
-        """Deterministic policy on a separate environment (arm collision checking on)."""
+        """Deterministic policy on a separate environment (arm collision checking on), logged to
+        TensorBoard and ``eval_during_training.jsonl``. An evaluation that ranks above every
+        earlier one (``evaluation_rank``) makes the model ``checkpoints/best``."""
         from relmogen.experiments.evaluate import evaluate_model
 
         result = evaluate_model(self.model, self.config, self.config.run.eval_episodes,
                                 seed=10_000 + episode, quiet=True)
         for key in ("success_rate", "spl", "closed_10", "mean_return"):
             self.writer.add_scalar(f"eval/{key}", result[key], episode)
+        evaluation = {"episode": episode, "wall_time_s": round(self.wall_time, 2), **result}
         with open(self.run_dir / "eval_during_training.jsonl", "a") as handle:
-            handle.write(json.dumps({"episode": episode, "wall_time_s": round(self.wall_time, 2), **result}) + "\n")
+            handle.write(json.dumps(evaluation) + "\n")
+        best = best_evaluation(self.run_dir)
+        if best is None or evaluation_rank(evaluation) > evaluation_rank(best):
+            write_best_checkpoint(self.run_dir, self.model, dict(self._bookkept_state(), evaluation=evaluation))
 
     def _log_scalars(self, episode: int, row: dict, sps: float) -> None:
         self.writer.add_scalar("charts/episodic_return", row["return"], episode)
         self.writer.add_scalar("charts/episodic_length", row["length"], episode)
         self.writer.add_scalar("charts/success_rate", float(np.mean(self.successes)), episode)
         self.writer.add_scalar("charts/SPS", sps, episode)
-        self.writer.add_scalar("charts/timesteps", self.model.num_timesteps, episode)
+        self.writer.add_scalar("charts/global_step", self.model.num_timesteps, episode)
         if hasattr(self.model, "exploration_rate"):  # DQN's epsilon
             self.writer.add_scalar("charts/epsilon", self.model.exploration_rate, episode)
         for key in ("base_fraction", "subgoal_success", "closed_10"):
@@ -294,10 +348,14 @@ class TrainingMonitor(BaseCallback):
                 self.writer.add_scalar("charts/oracle_agreement", value, episode)
 
     def checkpoint(self, with_replay: bool = True) -> None:
+        write_checkpoint(self.run_dir, self.model, self._bookkept_state(), with_replay)
+
+    def _bookkept_state(self) -> dict:
+        """A copy of the run's state with its budget counters brought up to now."""
         self.state["wall_time_s"] = self.wall_time
         self.state["cpu_time_s"] = self.cpu_time
         self.state["timesteps"] = self.model.num_timesteps
-        write_checkpoint(self.run_dir, self.model, dict(self.state), with_replay)
+        return dict(self.state)
 
     def close(self) -> None:
         self.writer.close()
@@ -305,6 +363,42 @@ class TrainingMonitor(BaseCallback):
 
 
 # ------------------------------------------------------------------------------ train
+def known_name(value: str, valid, what: str) -> str:
+    """``value`` when it is one of ``valid``; else a ValueError that suggests the nearest valid
+    name (the same letters in another case first) and lists them all."""
+    valid = sorted(valid)
+    if value in valid:
+        return value
+    close = [name for name in valid if name.lower() == value.lower()] or difflib.get_close_matches(value, valid, n=1)
+    suggestion = f"did you mean {close[0]}? " if close else ""
+    raise ValueError(f"unknown {what} {value!r}; {suggestion}valid: {', '.join(valid)}")
+
+
+def check_trainable(config: TrainConfig) -> None:
+    """Refuses, before anything is written, what would only fail once the run started: an
+    unknown task, scene or planner, or a device this machine does not have."""
+    from relmogen.motion_generation.planners import BACKENDS
+    from relmogen.scenes import available_scenes
+    from relmogen.tasks import TASKS
+
+    known_name(config.task, TASKS, "task")
+    require_device(config.device)
+    if config.env.scene is not None:
+        kind = TASKS[config.task].scene_kind
+        known_name(config.env.scene, [s for s in available_scenes() if s.startswith(kind)], f"{kind} scene")
+    if config.control != "joint":
+        for key in ("base_planner", "arm_planner"):
+            known_name(getattr(config.env, key), BACKENDS, f"env.{key}")
+
+
+def run_config_file(run_dir: Path) -> Path:
+    """``run_dir/config.yaml``; a ValueError when ``run_dir`` is not a run directory."""
+    path = Path(run_dir) / "config.yaml"
+    if not path.is_file():
+        raise ValueError(f"{run_dir} is not a run directory (no config.yaml); give a folder made by relmogen train")
+    return path
+
+
 def new_run_dir(out: Path, config: TrainConfig) -> Path:
     stamp = time.strftime("%Y%m%d-%H%M%S")
     run_dir = Path(out) / f"{config.task}__{config.algo}__{config.seed}__{stamp}"
@@ -314,6 +408,7 @@ def new_run_dir(out: Path, config: TrainConfig) -> Path:
 
 
 def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False) -> Path:
+    check_trainable(config)
     run_dir = new_run_dir(out, config)
     state = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}
     env = make_training_env(config)
@@ -329,7 +424,7 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
     learning parameters (``overrides``, ``--set`` syntax, see ``override_config``). Every
     change is appended to ``resumes.jsonl`` with the episode it took effect at."""
     run_dir = Path(run_dir)
-    config, changed = override_config(read_config(run_dir / "config.yaml"), list(overrides))
+    config, changed = override_config(read_config(run_config_file(run_dir)), list(overrides))
     (run_dir / "done.json").unlink(missing_ok=True)  # running again: not done until _learn returns
     updates = {key: value for key, value in (("episodes", episodes), ("max_hours", max_hours)) if value is not None}
     config = config.model_copy(update=updates)

@@ -95,3 +95,26 @@ def test_a_resumed_run_refuses_a_setting_its_algorithm_does_not_have(assignment)
     config = resolve_config("PointNav", "relmogen-r", preset="cpu")
     with pytest.raises(ValueError, match="relmogen-d only"):
         override_config(config, [assignment])
+
+
+def test_a_preset_may_be_a_yaml_file_and_the_config_records_its_absolute_path(tmp_path, monkeypatch):
+    (tmp_path / "mine.yaml").write_text("env:\n  image_size: 32\nrun:\n  eval_episodes: 2\n")
+    monkeypatch.chdir(tmp_path)
+    config = resolve_config("PointNav", "sac", preset="mine.yaml")
+    assert config.preset == str(tmp_path / "mine.yaml") and config.env.image_size == 32
+    assert config.run.eval_episodes == 2 and config.algo_params.batch_size == 256  # the schema's defaults
+    assert resolve_config("PointNav", "sac", preset="tiny").preset == "tiny"
+
+
+@pytest.mark.parametrize("content,message", [
+    ("env: [1, 2\n", "not valid YAML"),
+    ("- env\n", "must be a mapping"),
+    ("environment:\n  image_size: 32\n", "sections env, algos, run"),
+    ("env:\n  image_sise: 32\n", "image_sise"),
+])
+def test_a_bad_preset_file_is_refused_with_a_reason(tmp_path, content, message):
+    (tmp_path / "bad.yaml").write_text(content)
+    with pytest.raises(ValueError, match=message):
+        resolve_config("PointNav", "sac", preset=str(tmp_path / "bad.yaml"))
+    with pytest.raises(ValueError, match="does not exist"):
+        resolve_config("PointNav", "sac", preset=str(tmp_path / "missing.yaml"))

@@ -30,3 +30,14 @@ def test_shipped_policy_is_small_and_unknown_names_list_the_known_ones():
         assert DEMO_POLICY in str(error) and str(POLICIES_DIR) in str(error)
     else:
         raise AssertionError("an unknown policy name must be refused")
+
+
+def test_demo_video_records_the_first_episode_annotated_as_mp4(tmp_path):
+    from relmogen.experiments.demo import run_demo
+    from relmogen.visualisation.video import VIDEO_SIZE
+
+    metrics = run_demo(episodes=1, out_dir=tmp_path / "plain", quiet=True, video=tmp_path / "demo.mp4")
+    assert metrics["video"] == str(tmp_path / "demo.mp4") and "gif" not in metrics
+    assert not (tmp_path / "plain").exists()  # the annotated video instead of the plain GIF
+    frames = imageio.mimread(metrics["video"], format="FFMPEG")
+    assert len(frames) > 2 and frames[0].shape == (VIDEO_SIZE[1], VIDEO_SIZE[0], 3)

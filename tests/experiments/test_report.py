@@ -158,3 +158,58 @@ def test_table1_sets_reward_only_runs_beside_the_paper_and_assisted_runs_apart(t
 def test_table1_without_reports_is_a_one_line_error(tmp_path, capsys):
     assert main(["report", "--table1", str(tmp_path)]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_a_run_without_any_evaluation_gets_a_hint_on_how_to_make_one(tmp_path):
+    run = fake_run(tmp_path, "relmogen-r", 0, 0.5, 0.4)
+    (run / "eval" / "eval_collision-on.json").unlink()
+    markdown = write_report([run], tmp_path / "report")["markdown"]
+    assert f"{run} has no evaluation yet: run `relmogen eval {run}`" in markdown
+
+
+def test_tables_show_only_the_metrics_of_their_tasks(tmp_path):
+    navigation = fake_run(tmp_path, "relmogen-r", 0, 0.5, 0.4)
+    header = write_report([navigation], tmp_path / "nav")["markdown"].splitlines()[0]
+    assert "success_rate" in header and "spl" in header and "closed" not in header
+    kitchen = tmp_path / "ArrangeKitchenMM__relmogen-d__0"
+    (kitchen / "eval").mkdir(parents=True)
+    save_config(resolve_config("ArrangeKitchenMM", "relmogen-d", preset="cpu"), kitchen / "config.yaml")
+    (kitchen / "eval" / "eval_collision-on.json").write_text(json.dumps(
+        {"success_rate": 0.0, "spl": 0.0, "closed_5": 1.0, "closed_10": 2.0, "episodes": 5}))
+    result = write_report([navigation, kitchen], tmp_path / "both")
+    rows = {cells[0]: cells for cells in markdown_rows(result["markdown"].split("\n## ")[0])}
+    header = result["markdown"].splitlines()[0]
+    assert "spl" in header and "closed_10" in header
+    assert rows["ArrangeKitchenMM"][5] == "n/a" and rows["PushDoorNav"][6:8] == ["n/a", "n/a"]
+    reference = {row["task"]: row for row in json.loads((tmp_path / "both" / "table.json").read_text())["rows"]
+                 if row["reference"]}
+    assert reference["ArrangeKitchenMM"]["spl"] is None and reference["ArrangeKitchenMM"]["closed_10"]["mean"] == 2.0
+    assert reference["PushDoorNav"]["closed_10"] is None
+
+
+def test_curves_of_short_runs_leave_no_panel_empty(tmp_path):
+    from relmogen.experiments.report import collect, curve_figure
+
+    run = fake_run(tmp_path, "sac", 0, 0.0, 0.0)  # joint velocities: no subgoal shares logged
+    (run / "episodes.csv").write_text("episode,timesteps,wall_time_s,return,length,success\n1,750,30.0,0.5,750,0\n"
+                                      "2,1500,60.0,0.7,750,0\n")
+    figure = curve_figure(collect([run]))
+    for axis in figure.axes:
+        drawn = any(np.isfinite(line.get_ydata()).sum() >= 2 for line in axis.get_lines())
+        assert drawn or [text.get_text() for text in axis.texts], axis.get_ylabel()
+    assert "joint-velocity" in figure.axes[3].texts[0].get_text()
+
+
+def test_an_evaluation_of_the_best_checkpoint_is_a_setting_of_its_own_not_the_reference(tmp_path):
+    run = fake_run(tmp_path, "relmogen-r", 0, 0.5, 0.4)
+    new = {"success_rate": 0.2, "spl": 0.1, "closed_5": 0.0, "closed_10": 0.0, "episodes": 100, "scene": "office_A",
+           "base_planner": "rrt_connect", "arm_planner": "rrt_connect", "eval_seed": 100_000}
+    name = "eval_office_A_rrt_connect_rrt_connect_collision-on_100ep_{}_seed100000.json"
+    (run / "eval" / name.format("best_0000080")).write_text(json.dumps(dict(new, checkpoint="best_0000080",
+                                                                           success_rate=0.9)))
+    (run / "eval" / name.format("episode_0000100")).write_text(json.dumps(dict(new, checkpoint="episode_0000100")))
+    assert final_evaluation(run)["success_rate"] == 0.2  # the latest checkpoint's, newer names and older alike
+    write_report([run], tmp_path / "report")
+    rows = json.loads((tmp_path / "report" / "table.json").read_text())["rows"]
+    best = [row for row in rows if row["checkpoint"] == "best"]
+    assert len(best) == 1 and best[0]["success_rate"]["mean"] == 0.9 and not best[0]["reference"]

@@ -14,16 +14,21 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 import torch as th
+import yaml
 from stable_baselines3.common.save_util import load_from_pkl
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.shipped import export_actor, open_shipped
-from relmogen.experiments.config import read_config, resolve_config
+from relmogen.cli import main
+from relmogen.experiments.config import load_preset, read_config, resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_policy
-from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, env_kwargs, latest_checkpoint, latest_replay,
-                                       read_resume_log, resume, train)
+from relmogen.experiments.report import final_evaluation
+from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, best_checkpoint, env_kwargs,
+                                       evaluation_rank, latest_checkpoint, latest_replay, read_resume_log, resume,
+                                       train)
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
+from relmogen.visualisation.video import VIDEO_SIZE
 
 
 def episodes_in(run_dir: Path) -> list[int]:
@@ -39,6 +44,8 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     tags = EventAccumulator(str(run_dir / "tb")).Reload().Tags()["scalars"]
     assert {"charts/episodic_return", "charts/success_rate", "charts/SPS", "reward_terms/geodesic"} <= set(tags)
     assert len(EventAccumulator(str(run_dir / "tb")).Reload().Scalars("reward_terms/geodesic")) == episodes
+    steps = [event.value for event in EventAccumulator(str(run_dir / "tb")).Reload().Scalars("charts/global_step")]
+    assert steps == [float(row["timesteps"]) for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))]
     assert ("charts/epsilon" in tags) == (algo == "relmogen-d")
     assert episodes_in(run_dir) == list(range(1, episodes + 1))
     shares = [row["base_fraction"] for row in csv.DictReader(open(run_dir / "episodes.csv", newline=""))]
@@ -66,12 +73,12 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     assert ("oracle_agreement" in result) == (algo == "relmogen-d")  # SGP-D against the task's oracle
     assert 0.0 <= result.get("oracle_agreement", 0.0) <= 1.0
     sampled = evaluate_path(run_dir, episodes=1, quiet=True, stochastic=True)  # sampled / epsilon-greedy
-    assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic.json"))
+    assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic_episode_*.json"))
     if algo == "relmogen-d":
         assert 0.0 < sampled["epsilon"] <= 1.0
         skipping = evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
         assert skipping["policy"] == "deterministic-skip-no-ops"
-        assert list((run_dir / "eval").glob("*_1ep_skip_no_ops.json"))
+        assert list((run_dir / "eval").glob("*_1ep_skip_no_ops_episode_*_seed0.json"))
     else:
         with pytest.raises(ValueError, match="needs relmogen-d"):
             evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
@@ -229,3 +236,66 @@ def test_kill_9_between_replay_saves_keeps_the_newer_model_and_the_older_replay(
     assert replay.observations["depth"].dtype == np.float16 and replay.observations["rgb"].dtype == np.uint8
     resume(run_dir, quiet=True, episodes=model_state["episodes"] + 1)
     assert episodes_in(run_dir) == list(range(1, model_state["episodes"] + 2))
+
+
+@pytest.fixture(scope="module")
+def preset_file_run(tmp_path_factory):
+    """A relmogen-r PointNav run from a preset file (tiny, evaluated every 2 episodes) trained for
+    4 episodes through the CLI, then resumed to 5."""
+    root = tmp_path_factory.mktemp("preset_file_run")
+    tree = load_preset("tiny")
+    tree["run"]["eval_every_episodes"] = 2
+    preset = root / "tiny_eval2.yaml"
+    preset.write_text(yaml.safe_dump(tree))
+    assert main(["train", "--task", "PointNav", "--algo", "relmogen-r", "--preset", str(preset), "--episodes", "4",
+                 "--out", str(root / "runs"), "--quiet"]) == 0
+    (run_dir,) = (root / "runs").iterdir()
+    assert main(["train", "--resume", str(run_dir), "--episodes", "5", "--quiet"]) == 0
+    return preset, run_dir
+
+
+def test_a_run_from_a_preset_file_records_the_file_and_resumes(preset_file_run):
+    preset, run_dir = preset_file_run
+    config = read_config(run_dir / "config.yaml")
+    assert config.preset == str(preset) and config.run.eval_every_episodes == 2
+    assert episodes_in(run_dir) == [1, 2, 3, 4, 5]
+
+
+def test_the_best_periodic_evaluation_keeps_its_model_as_checkpoints_best(preset_file_run):
+    _, run_dir = preset_file_run
+    evaluations = [json.loads(line) for line in (run_dir / "eval_during_training.jsonl").read_text().splitlines()]
+    assert [evaluation["episode"] for evaluation in evaluations] == [2, 4]
+    assert (evaluations[0]["training_seed"], evaluations[0]["eval_seed"]) == (0, 10_002)
+    expected = max(evaluations, key=evaluation_rank)  # the first of equals: a tie keeps the earlier model
+    best = best_checkpoint(run_dir)
+    state = json.loads((best / "state.json").read_text())
+    assert best.name == f"best_{expected['episode']:07d}" and state["episodes"] == expected["episode"]
+    assert state["evaluation"] == expected
+    assert sorted(path.name for path in best.iterdir()) == ["model.zip", "state.json"]  # the model only
+    assert [path.name for path in (run_dir / "checkpoints").glob("best_*")] == [best.name]
+
+
+def test_evaluations_rank_by_success_then_items_closed_then_return():
+    evaluations = [{"success_rate": 0.1, "mean_return": -5.0}, {"success_rate": 0.0, "closed_10": 3.0, "mean_return": 2.0},
+                   {"success_rate": 0.0, "closed_10": 3.0, "mean_return": 1.0}, {"success_rate": 0.0, "closed_10": 2.0},
+                   {"mean_return": 0.5}]
+    assert sorted(evaluations, key=evaluation_rank, reverse=True) == [evaluations[i] for i in (0, 1, 2, 3, 4)]
+
+
+def test_eval_picks_the_checkpoint_names_it_and_its_seeds_and_records_a_video(preset_file_run, tmp_path, capsys):
+    _, run_dir = preset_file_run
+    best, latest = best_checkpoint(run_dir), latest_checkpoint(run_dir)
+    assert main(["eval", str(run_dir), "--checkpoint", "best", "--episodes", "1", "--seed", "7",
+                 "--video", str(tmp_path / "out.gif"), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert (result["checkpoint"], result["checkpoint_episode"]) == (best.name, int(best.name.split("_")[1]))
+    assert (result["eval_seed"], result["episodes"], result["training_seed"]) == (7, 1, 0) and "seed" not in result
+    frames = imageio.mimread(result["video"])
+    assert len(frames) > 1 and frames[0].shape[:2] == (VIDEO_SIZE[1], VIDEO_SIZE[0])
+    assert main(["eval", str(run_dir), "--episodes", "1", "--seed", "7", "--json"]) == 0
+    assert main(["eval", str(run_dir), "--checkpoint", str(latest), "--episodes", "1", "--seed", "8", "--json"]) == 0
+    setting = "eval_office_A_rrt_connect_rrt_connect_collision-on_1ep"
+    assert sorted(path.name for path in (run_dir / "eval").glob("*.json")) == sorted(
+        [f"{setting}_{best.name}_seed7.json", f"{setting}_{latest.name}_seed7.json", f"{setting}_{latest.name}_seed8.json"])
+    reference = final_evaluation(run_dir)  # of the latest checkpoint, the newest of equal size
+    assert (reference["checkpoint"], reference["eval_seed"]) == (latest.name, 8)

@@ -1,0 +1,99 @@
+"""The command line itself: version, help on every flag, the task list, and one clear line per error."""
+
+import argparse
+import importlib.metadata
+import json
+import subprocess
+import sys
+
+import pytest
+import torch as th
+
+from relmogen import __version__
+from relmogen.cli import build_parser, main
+from relmogen.experiments.config import resolve_config, save_config
+
+
+def run_cli(*args, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "relmogen.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=300)
+
+
+def test_version_is_the_package_version_and_no_pybullet_banner_is_printed():
+    done = run_cli("--version")
+    assert done.returncode == 0 and done.stdout == f"relmogen {__version__}\n"
+    assert "pybullet build time" not in done.stdout + done.stderr
+    assert __version__ == importlib.metadata.version("relmogen")
+
+
+def parsers(parser: argparse.ArgumentParser, name: str = "relmogen"):
+    """Every parser of the command line with its command path."""
+    yield name, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for command, subparser in action.choices.items():
+                yield from parsers(subparser, f"{name} {command}")
+
+
+def test_every_option_of_every_command_has_help():
+    missing = []
+    for name, parser in parsers(build_parser()):
+        for action in parser._actions:
+            if isinstance(action, argparse._HelpAction):
+                continue
+            if isinstance(action, argparse._SubParsersAction):
+                missing += [f"{name} {choice.dest}" for choice in action._choices_actions if not choice.help]
+            if not action.help or action.help == argparse.SUPPRESS:
+                missing.append(f"{name} {'/'.join(action.option_strings) or action.dest}")
+    assert not missing
+
+
+def test_tasks_lists_every_task_with_its_metrics_and_episode_lengths(capsys):
+    assert main(["tasks", "--json"]) == 0
+    rows = {row["task"]: row for row in json.loads(capsys.readouterr().out)}
+    assert {"PointNav", "TabletopReachM", "ArrangeKitchenMM"} <= set(rows)
+    assert rows["PointNav"]["scene"] == "office" and "spl" in rows["PointNav"]["metrics"]
+    assert "closed_10" not in rows["PointNav"]["metrics"] and "spl" not in rows["ArrangeKitchenMM"]["metrics"]
+    assert rows["TabletopReachM"]["episode_steps"] == {"joint": 750, "subgoal-r": 5, "subgoal-d": 5}
+    assert rows["PointNav"]["id"] == "relmogen/PointNav-v0"
+    assert main(["tasks"]) == 0
+    table = capsys.readouterr().out
+    assert "ArrangeChairMM" in table and "750 / 25 / 25" in table and "750 / 5 / 5" in table
+
+
+@pytest.fixture
+def fake_run(tmp_path):
+    """A run directory with only its config: no checkpoint, no evaluation."""
+    run = tmp_path / "PointNav__sac__0__fake"
+    run.mkdir()
+    save_config(resolve_config("PointNav", "sac", preset="tiny"), run / "config.yaml")
+    return run
+
+
+ERRORS = {
+    "report of a missing run": (["report", "/nonexistent", "--out", "x"], "not a run directory"),
+    "report without --out": (["report", "{run}"], "--out DIR"),
+    "task name in the wrong case": (["train", "--task", "pointnav", "--algo", "sac", "--preset", "tiny", "--out",
+                                     "runs"], "did you mean PointNav?"),
+    "missing preset file": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "missing.yaml", "--out",
+                             "runs"], "missing.yaml does not exist"),
+    "CUDA without CUDA": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny", "--device", "cuda",
+                           "--out", "runs"], "use --device cpu"),
+    "resume of a missing run": (["train", "--resume", "nowhere"], "not a run directory"),
+    "eval of a missing run": (["eval", "nowhere"], "not a run directory"),
+    "eval of a run without a best checkpoint": (["eval", "{run}", "--checkpoint", "best"], "no best checkpoint"),
+    "eval to a video format it cannot write": (["eval", "{run}", "--video", "out.avi"], ".gif or .mp4"),
+}
+
+
+@pytest.mark.parametrize("case", list(ERRORS))
+def test_errors_are_one_line_naming_the_fix_with_exit_code_2_and_create_nothing(case, tmp_path, fake_run):
+    args, message = ERRORS[case]
+    if case == "CUDA without CUDA" and th.cuda.is_available():
+        pytest.skip("this machine has CUDA")
+    before = sorted(tmp_path.rglob("*"))
+    done = run_cli(*(arg.format(run=fake_run) for arg in args), cwd=tmp_path)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2, done.stderr
+    assert len(lines) == 1 and lines[0].startswith("relmogen: error: ") and message in lines[0], done.stderr
+    assert done.stdout == "" and sorted(tmp_path.rglob("*")) == before
