@@ -5,12 +5,17 @@
     relmogen demo  [--episodes N] [--seed S] [--out DIR] [--video PATH.gif|mp4] [--json]
     relmogen oracle --task T [--episodes N] [--policy oracle|random] [--control subgoal-r|subgoal-d]
                     [--image-size PX] [--push-frame base|surface] [--scene S] [--base-planner X]
-                    [--arm-planner Y] [--arm-collision on|off] [--gif PATH] [--json]
+                    [--arm-planner Y] [--arm-collision on|off] [--video PATH.gif|mp4] [--json]
     relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
     relmogen bench planner [--problems N] [--seed S] [--json]
     relmogen bench train [--task T] [--updates N] [--subgoals N] [--json]
+    relmogen bench sweep [--task T] [--preset NAME] [--episodes N] [--json]
     relmogen train --task T --algo A [--seed S] [--preset NAME|FILE.yaml] [--episodes N] [--max-hours H]
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
+    relmogen sweep --tasks T... --algos A... --seeds S... [--preset NAME|FILE.yaml] [--set key=value ...]
+                   [--episodes N | --cpu-hours H] --out DIR [--backend ray|serial] [--address ADDR]
+                   [--cpus-per-run C] [--eval-episodes N] [--resume] [--quiet]
+    relmogen sweep --report DIR [--eval-episodes N] [--backend ray|serial]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
                   [--base-planner X] [--arm-planner Y] [--arm-collision on|off] [--scene A|B]
                   [--stochastic] [--skip-no-ops] [--video PATH.gif|mp4] [--json]
@@ -88,7 +93,7 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 
     result = run_oracle(args.task, args.episodes, args.policy, args.control, args.seed, args.scene,
                         args.base_planner, args.arm_planner, args.arm_collision == "on", quiet=args.json,
-                        gif=Path(args.gif) if args.gif else None, image_size=args.image_size,
+                        video=Path(args.video) if args.video else None, image_size=args.image_size,
                         push_frame=args.push_frame)
     _print_metrics(result, args.json, f"{args.task}: {args.policy} subgoals")
     return 0
@@ -96,19 +101,64 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.config import resolve_config
+    from relmogen.experiments.env_workers import EnvWorkerError
     from relmogen.experiments.train import resume, run_config_file, train
 
-    if args.resume:
-        run_config_file(Path(args.resume))
-        run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours,
-                         overrides=args.set)
-    else:
-        if not args.task or not args.algo:
-            raise ValueError("--task and --algo are required unless --resume is given")
-        config = resolve_config(args.task, args.algo, args.seed, args.preset, args.episodes or 1000, args.device,
-                                args.set, args.max_hours)
-        run_dir = train(config, Path(args.out), quiet=args.quiet)
+    try:
+        if args.resume:
+            run_config_file(Path(args.resume))
+            run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours,
+                             overrides=args.set)
+        else:
+            if not args.task or not args.algo:
+                raise ValueError("--task and --algo are required unless --resume is given")
+            config = resolve_config(args.task, args.algo, args.seed, args.preset, args.episodes or 1000, args.device,
+                                    args.set, args.max_hours)
+            run_dir = train(config, Path(args.out), quiet=args.quiet)
+    except EnvWorkerError as error:  # checkpoint written; one line that says how to continue
+        print(f"relmogen: error: {error}", file=sys.stderr)
+        return 1
     print(run_dir)
+    return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from relmogen.experiments.sweep import SweepSpec, evaluate_and_report, make_backend, run_sweep
+
+    if args.report is not None:
+        if args.out is not None or args.resume or args.tasks or args.algos or args.seeds:
+            raise ValueError("sweep --report DIR takes neither --out, --resume nor --tasks/--algos/--seeds")
+        executor = make_backend(args.backend, args.cpus_per_run, args.address)
+        try:
+            readme = evaluate_and_report(Path(args.report), executor=executor, eval_episodes=args.eval_episodes,
+                                         quiet=args.quiet)
+        finally:
+            executor.close()
+        if readme is None:
+            raise ValueError(f"no finished run in {args.report} to report")
+        print(readme)
+        return 0
+    if args.out is None:
+        raise ValueError("sweep needs --out DIR (or --report DIR)")
+    spec = None
+    given = [name for name in ("tasks", "algos", "seeds") if getattr(args, name)]
+    if given or not args.resume:
+        if len(given) < 3:
+            raise ValueError("a sweep needs --tasks, --algos and --seeds (or --resume --out DIR)")
+        from relmogen.experiments.config import recorded_preset
+
+        spec = SweepSpec(tasks=args.tasks, algos=args.algos, seeds=args.seeds, preset=recorded_preset(args.preset),
+                         overrides=args.set, episodes=args.episodes, cpu_hours=args.cpu_hours, device=args.device)
+    manifest = run_sweep(Path(args.out), spec, resume=args.resume, backend=args.backend, address=args.address,
+                         cpus_per_run=args.cpus_per_run, eval_episodes=args.eval_episodes, quiet=args.quiet)
+    failed = {key: entry["error"] for key, entry in manifest["runs"].items() if entry["state"] != "done"}
+    for key, error in failed.items():
+        print(f"relmogen: error: run {key} failed: {error}", file=sys.stderr)
+    if failed:
+        print(f"relmogen: {len(failed)} of {len(manifest['runs'])} runs failed; continue with: relmogen sweep "
+              f"--resume --out {args.out}", file=sys.stderr)
+        return 1
+    print(Path(args.out) / "README.md")
     return 0
 
 
@@ -174,6 +224,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
                            subgoal_samples=args.subgoal_samples)
     elif args.what == "planner":
         return _bench_planner(args)
+    elif args.what == "sweep":
+        from relmogen.bench.sweep_bench import bench_sweep
+
+        result = bench_sweep(task=args.task or "PointNav", preset=args.preset, episodes=args.episodes)
+        print(json.dumps(result, sort_keys=True) if args.json else json.dumps(result, indent=1))
+        return 0
     elif args.what == "train":
         from relmogen.bench.train_bench import bench_train
 
@@ -208,7 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
                         help="print the package version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", help="what to do")
-    for add in (_add_tasks, _add_demo, _add_oracle, _add_train, _add_eval, _add_export, _add_viz, _add_report,
+    for add in (_add_tasks, _add_demo, _add_oracle, _add_train, _add_sweep, _add_eval, _add_export, _add_viz, _add_report,
                 _add_bench):
         add(sub)
     return parser
@@ -245,7 +301,8 @@ def _add_oracle(sub) -> None:
     oracle.add_argument("--seed", type=int, default=0, help="seed of the first episode (default 0)")
     oracle.add_argument("--scene", default=None, help="scene name, e.g. office_B (default: the task's, layout A)")
     _add_planner_options(oracle, default="rrt_connect")
-    oracle.add_argument("--gif", default=None, help="also record one episode to this GIF")
+    oracle.add_argument("--video", "--gif", dest="video", default=None, metavar="PATH",
+                        help="also record one episode, annotated, to this .gif or .mp4")
     oracle.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     oracle.set_defaults(func=cmd_oracle)
 
@@ -279,6 +336,38 @@ def _add_train(sub) -> None:
                        help="continue this run from its latest checkpoint instead of starting one")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(func=cmd_train)
+
+
+def _add_sweep(sub) -> None:
+    sweep = sub.add_parser("sweep", help="train every (task, algorithm, seed) on Ray or one by one, then report "
+                                         "Table I")
+    sweep.add_argument("--tasks", nargs="+", default=[], metavar="T", help="tasks (relmogen tasks lists them)")
+    sweep.add_argument("--algos", nargs="+", default=[], metavar="A", help="relmogen-r, relmogen-d, sac, oac")
+    sweep.add_argument("--seeds", nargs="+", type=int, default=[], metavar="S", help="training seeds")
+    sweep.add_argument("--preset", default="cpu", help="preset name or YAML file, as for train (default cpu)")
+    sweep.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                       help="override a preset value in every run, as for train")
+    budget = sweep.add_mutually_exclusive_group()
+    budget.add_argument("--episodes", type=_positive_int, default=None, help="episode budget per run (default 1000)")
+    budget.add_argument("--cpu-hours", type=float, default=None,
+                        help="CPU-time budget per run (trainer plus environment workers) instead of episodes")
+    sweep.add_argument("--device", default="auto", help="torch device of every run (default auto)")
+    sweep.add_argument("--out", default=None, metavar="DIR",
+                       help="sweep folder: sweep.json, runs/, a report per task and algorithm, README.md")
+    sweep.add_argument("--backend", choices=["ray", "serial"], default="ray",
+                       help="ray: each run a Ray task (default); serial: one after another, without Ray")
+    sweep.add_argument("--address", default=None, metavar="ADDR",
+                       help="an existing Ray cluster (e.g. HEAD:6379) instead of a local Ray started here")
+    sweep.add_argument("--cpus-per-run", type=_positive_int, default=1, help="Ray CPUs reserved per run (default 1)")
+    sweep.add_argument("--eval-episodes", type=_positive_int, default=100,
+                       help="episodes of each finished run's final evaluation (default 100, seed 100000, arm "
+                            "collision on)")
+    sweep.add_argument("--resume", action="store_true",
+                       help="continue the sweep in --out: skip finished runs, resume the others from their checkpoint")
+    sweep.add_argument("--report", default=None, metavar="DIR",
+                       help="only evaluate the finished runs of the sweep in DIR and write its reports and README.md")
+    sweep.add_argument("--quiet", action="store_true", help="no live table")
+    sweep.set_defaults(func=cmd_sweep)
 
 
 def _add_eval(sub) -> None:
@@ -342,9 +431,12 @@ def _add_report(sub) -> None:
 
 def _add_bench(sub) -> None:
     bench = sub.add_parser("bench", help="speed benchmarks")
-    bench.add_argument("what", choices=["env", "planner", "train"], help="what to time")
+    bench.add_argument("what", choices=["env", "planner", "train", "sweep"], help="what to time")
     bench.add_argument("--task", default=None,
-                       help="env: task of the joint-velocity steps (PointNav); train: task (PushDoorNav)")
+                       help="env: task of the joint-velocity steps (PointNav); train: task (PushDoorNav); "
+                            "sweep: task of the relmogen-r runs (PointNav)")
+    bench.add_argument("--preset", default="tiny", help="sweep: preset of the runs (default tiny)")
+    bench.add_argument("--episodes", type=_positive_int, default=10, help="sweep: episodes per run (default 10)")
     bench.add_argument("--updates", type=_positive_int, default=10, help="train: gradient steps timed per run")
     bench.add_argument("--subgoals", type=_positive_int, default=1000,
                        help="train: subgoals of the real relmogen-r cpu training run, counted from its first update")

@@ -8,18 +8,22 @@ from relmogen.agents.oracles import make_policy
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.envs.subgoal_controls import SubgoalRControl
 from relmogen.experiments.rollout import aggregate, run_episode, run_episodes
-from relmogen.visualisation.views import write_animation
+from relmogen.visualisation.video import VIDEO_FPS, AnnotatedRecorder
+from relmogen.visualisation.views import check_animation_path, write_animation
 
 ORACLE_CONTROLS = ("subgoal-r", "subgoal-d")
 
 
 def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = "subgoal-r", seed: int = 0,
                scene: str | None = None, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
-               arm_collision: bool = True, quiet: bool = False, gif: Path | None = None, image_size: int = 128,
+               arm_collision: bool = True, quiet: bool = False, video: Path | None = None, image_size: int = 128,
                push_frame: str = "base") -> dict:
     """Oracles decide in ``subgoal-r`` actions. Through ``control="subgoal-d"`` each one is
     executed as the nearest discrete action (``SubgoalDControl.nearest_index``): the ceiling of
-    SGP-D's action space at that image size and push frame."""
+    SGP-D's action space at that image size and push frame. ``video`` (.gif or .mp4) records one
+    more episode with the evaluation's overlays (``relmogen.visualisation.video``)."""
+    if video is not None:
+        check_animation_path(video)
     if control not in ORACLE_CONTROLS:
         raise ValueError(f"oracles act through {' or '.join(ORACLE_CONTROLS)}, got control {control!r}")
     if control == "subgoal-d" and policy != "oracle":
@@ -36,9 +40,10 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
     result = {"task": task, "policy": policy, "control": control, "image_size": image_size, **options,
               "scene": env.scene.name, "base_planner": base_planner, "arm_planner": arm_planner,
               "arm_collision": arm_collision, **aggregate(records)}
-    if gif is not None:
-        record = run_episode(env, act, seed, record_frames=True, on_reset=agent.reset)
-        result["gif"] = str(write_animation(record.frames, gif, fps=8))
+    if video is not None:
+        recorder = AnnotatedRecorder()
+        run_episode(env, act, seed, on_reset=agent.reset, recorder=recorder)
+        result["video"] = str(write_animation(recorder.frames, video, fps=VIDEO_FPS))
     env.close()
     return result
 

@@ -17,3 +17,13 @@ def test_random_discrete_actions_and_joint_control_are_refused():
         run_oracle("PointNav", episodes=1, policy="random", control="subgoal-d", image_size=64, quiet=True)
     with pytest.raises(ValueError, match="got control 'joint'"):
         run_oracle("PointNav", episodes=1, control="joint", image_size=64, quiet=True)
+
+
+def test_oracle_video_records_one_annotated_episode(tmp_path):
+    import imageio.v2 as imageio
+
+    from relmogen.experiments.oracle import run_oracle
+
+    result = run_oracle("PointNav", 1, video=tmp_path / "pointnav.gif", image_size=64, quiet=True)
+    frames = imageio.mimread(result["video"])
+    assert len(frames) > 1 and frames[0].shape[:2] == (384, 512)
