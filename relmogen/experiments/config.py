@@ -81,6 +81,9 @@ class RunSettings(_Strict):
     # One learner thread: on a 2-core machine shared with the environment workers, two torch
     # threads made updates about 2.4x slower (measured under load).
     torch_threads: int = Field(1, ge=1)
+    # n_envs > 1: the longest wait for one reply of an environment worker before the run stops with a
+    # checkpoint (a subgoal plans and executes in seconds; a worker silent this long is stuck)
+    worker_timeout_s: float = Field(600.0, gt=0)
 
     @model_validator(mode="after")
     def _replay_saved_with_a_model(self) -> RunSettings:
@@ -99,6 +102,8 @@ class TrainConfig(_Strict):
     preset: str = "cpu"
     episodes: int = Field(1000, ge=1)
     max_hours: float | None = Field(None, gt=0)  # stop on wall-clock instead (equal-time comparisons)
+    # stop on CPU time of trainer plus workers (relmogen sweep --cpu-hours: fair when runs share machines)
+    max_cpu_hours: float | None = Field(None, gt=0)
     device: str = "auto"
     env: EnvConfig = Field(default_factory=EnvConfig)
     algo_params: AlgoConfig = Field(default_factory=AlgoConfig)

@@ -29,7 +29,7 @@ import torch as th
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv
 from torch.utils.tensorboard import SummaryWriter
 
 from relmogen.agents.demonstrations import OracleLabels, add_demonstrations
@@ -39,6 +39,7 @@ from relmogen.agents.replay import CompactDictReplayBuffer, resize_replay_buffer
 from relmogen.agents.sac import OAC, SharedEncoderSAC
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import TrainConfig, override_config, read_config, save_config
+from relmogen.experiments.env_workers import WORKER_ERRORS, EnvWorkerError, GuardedSubprocVecEnv, WorkerErrorLog
 
 CHECKPOINTS = "checkpoints"
 LATEST = "latest"  # a file naming the newest complete model checkpoint folder
@@ -87,11 +88,26 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
     return kwargs
 
 
-def make_training_env(config: TrainConfig):
-    vec_cls = SubprocVecEnv if config.env.n_envs > 1 else DummyVecEnv
+def make_training_env(config: TrainConfig, run_dir: Path | None = None):
+    """The training environments: in-process for one, else one worker process each
+    (``GuardedSubprocVecEnv``: a dead or stuck worker raises ``EnvWorkerError`` instead of hanging;
+    with ``run_dir``, a worker's exception is logged to ``run_dir/worker_errors.log``)."""
     kwargs = env_kwargs(config, arm_collision=config.env.arm_collision_train)
+    oracle_labels = config.algo_params.oracle_labels
+    if config.env.n_envs == 1:
+        return make_vec_env(RelmogenEnv, n_envs=1, seed=config.seed, env_kwargs=kwargs, vec_env_cls=DummyVecEnv,
+                            wrapper_class=OracleLabels if oracle_labels else None)
+    error_log = str(Path(run_dir) / WORKER_ERRORS) if run_dir is not None else None
     return make_vec_env(RelmogenEnv, n_envs=config.env.n_envs, seed=config.seed, env_kwargs=kwargs,
-                        vec_env_cls=vec_cls, wrapper_class=OracleLabels if config.algo_params.oracle_labels else None)
+                        vec_env_cls=GuardedSubprocVecEnv,
+                        vec_env_kwargs={"timeout_s": config.run.worker_timeout_s, "error_log": error_log},
+                        wrapper_class=worker_env, wrapper_kwargs={"oracle_labels": oracle_labels,
+                                                                  "error_log": error_log})
+
+
+def worker_env(env, oracle_labels: bool = False, error_log: str | None = None):
+    """A worker's environment: ``OracleLabels`` when asked, inside ``WorkerErrorLog``."""
+    return WorkerErrorLog(OracleLabels(env) if oracle_labels else env, error_log)
 
 
 def build_model(config: TrainConfig, env):
@@ -285,8 +301,9 @@ class TrainingMonitor(BaseCallback):
         return not self._budget_spent()
 
     def _budget_spent(self) -> bool:
-        hours = self.config.max_hours
-        return self.state["episodes"] >= self.config.episodes or (hours is not None and self.wall_time >= hours * 3600)
+        hours, cpu_hours = self.config.max_hours, self.config.max_cpu_hours
+        return (self.state["episodes"] >= self.config.episodes or (hours is not None and self.wall_time >= hours * 3600)
+                or (cpu_hours is not None and self.cpu_time >= cpu_hours * 3600))
 
     def _record_episode(self, info: dict, subgoals: list[tuple[bool, bool]], term_sums: dict[str, float]) -> None:
         self.state["episodes"] += 1
@@ -411,7 +428,7 @@ def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False) ->
     check_trainable(config)
     run_dir = new_run_dir(out, config)
     state = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}
-    env = make_training_env(config)
+    env = make_training_env(config, run_dir)
     model = build_model(config, env)
     add_missing_demonstrations(run_dir, config, model, state, quiet)
     return _learn(run_dir, config, model, state, quiet)
@@ -433,7 +450,7 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
     if updates or overrides:
         save_config(config, run_dir / "config.yaml")
         _log_resume(run_dir, state, updates, list(overrides))
-    env = make_training_env(config)
+    env = make_training_env(config, run_dir)
     if checkpoint is None:  # killed before the first checkpoint: start over in place
         state, model = {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, build_model(config, env)
     else:
@@ -507,6 +524,11 @@ def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) 
             model.learn(total_timesteps=10**12, callback=monitor, reset_num_timesteps=state["timesteps"] == 0,
                         progress_bar=False)
             monitor.checkpoint()
+    except EnvWorkerError as error:  # a worker died or hung: keep what was learned, then report it
+        monitor.progress.stop()
+        monitor.checkpoint(with_replay=True)
+        error.run_dir, error.episodes = run_dir, state["episodes"]
+        raise
     finally:
         monitor.close()
         model.get_env().close()

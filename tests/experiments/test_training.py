@@ -4,14 +4,17 @@ import csv
 import json
 import pickle
 import os
+import re
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import gymnasium as gym
 import imageio.v2 as imageio
 import numpy as np
+import psutil
 import pytest
 import torch as th
 import yaml
@@ -22,11 +25,12 @@ from relmogen.agents.dqn import RelmogenDQN
 from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.cli import main
 from relmogen.experiments.config import load_preset, read_config, resolve_config
+from relmogen.experiments.env_workers import WORKER_ERRORS, EnvWorkerError, GuardedSubprocVecEnv, last_logged_error
 from relmogen.experiments.evaluate import evaluate_path, load_policy
 from relmogen.experiments.report import final_evaluation
 from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, best_checkpoint, env_kwargs,
-                                       evaluation_rank, latest_checkpoint, latest_replay, read_resume_log, resume,
-                                       train)
+                                       evaluation_rank, latest_checkpoint, latest_replay, make_training_env,
+                                       read_resume_log, resume, train, worker_env)
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 from relmogen.visualisation.video import VIDEO_SIZE
 
@@ -299,3 +303,122 @@ def test_eval_picks_the_checkpoint_names_it_and_its_seeds_and_records_a_video(pr
         [f"{setting}_{best.name}_seed7.json", f"{setting}_{latest.name}_seed7.json", f"{setting}_{latest.name}_seed8.json"])
     reference = final_evaluation(run_dir)  # of the latest checkpoint, the newest of equal size
     assert (reference["checkpoint"], reference["eval_seed"]) == (latest.name, 8)
+
+
+# ------------------------------------------------------------------ environment workers
+class _ToyEnv(gym.Env):
+    """A one-number environment whose ``step`` raises, hangs or works, as asked."""
+
+    observation_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+    action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+    def __init__(self, behaviour: str = "ok"):
+        self.behaviour = behaviour
+
+    def reset(self, seed=None, options=None):
+        return np.zeros(1, np.float32), {}
+
+    def step(self, action):
+        if self.behaviour == "raise":
+            raise RuntimeError("the planner lost its scene")
+        if self.behaviour == "hang":
+            time.sleep(3600)
+        return np.zeros(1, np.float32), 0.0, False, False, {}
+
+
+def _toy_venv(behaviours: list[str], tmp_path: Path, timeout_s: float = 600.0) -> GuardedSubprocVecEnv:
+    log = tmp_path / WORKER_ERRORS
+    fns = [lambda b=b: worker_env(_ToyEnv(b), error_log=str(log)) for b in behaviours]
+    return GuardedSubprocVecEnv(fns, start_method="fork", timeout_s=timeout_s, error_log=log)
+
+
+def test_a_worker_exception_is_logged_and_names_its_worker_and_error(tmp_path):
+    venv = _toy_venv(["ok", "raise"], tmp_path)
+    venv.reset()
+    with pytest.raises(EnvWorkerError) as caught:
+        venv.step(np.zeros((2, 1), np.float32))
+    assert (caught.value.index, caught.value.reason) == (1, "RuntimeError: the planner lost its scene")
+    started = time.time()
+    venv.close()  # the surviving worker is ended, not waited on
+    assert time.time() - started < 10 and not any(process.is_alive() for process in venv.processes)
+    log = (tmp_path / WORKER_ERRORS).read_text()
+    assert log.startswith(f"=== worker pid {venv.processes[1].pid}: step") and "Traceback" in log
+    assert last_logged_error(tmp_path / WORKER_ERRORS, venv.processes[1].pid) == caught.value.reason
+
+
+def test_a_stuck_worker_times_out_and_a_killed_one_names_the_signal(tmp_path):
+    venv = _toy_venv(["hang", "ok"], tmp_path, timeout_s=1.5)
+    venv.reset()
+    started = time.time()
+    with pytest.raises(EnvWorkerError, match=r"environment worker 0 died: no reply in 1.5 s"):
+        venv.step(np.zeros((2, 1), np.float32))
+    assert time.time() - started < 10
+    venv.close()
+    assert not any(process.is_alive() for process in venv.processes)
+    venv = _toy_venv(["ok", "ok"], tmp_path)
+    venv.reset()
+    os.kill(venv.processes[1].pid, signal.SIGKILL)
+    with pytest.raises(EnvWorkerError, match="environment worker 1 died: killed by signal SIGKILL"):
+        venv.step(np.zeros((2, 1), np.float32))
+    venv.close()
+
+
+def test_worker_environments_keep_the_oracle_labels_inside_the_error_log():
+    config = resolve_config("ButtonDoorNav", "relmogen-d", preset="tiny",
+                            overrides=["env.n_envs=2", "algo.oracle_labels=true", "algo.demo_margin_weight=1"])
+    venv = make_training_env(config)
+    try:
+        assert isinstance(venv, GuardedSubprocVecEnv)
+        venv.reset()
+        labels = venv.env_method("oracle_label")  # through WorkerErrorLog to OracleLabels
+        assert len(labels) == 2 and all(isinstance(label, (int, np.integer)) for label in labels)
+    finally:
+        venv.close()
+
+
+def test_a_killed_environment_worker_stops_the_run_with_a_checkpoint_and_resume_continues(tmp_path):
+    cmd = [sys.executable, "-m", "relmogen.cli", "train", "--task", "PointNav", "--algo", "relmogen-r", "--preset",
+           "tiny", "--episodes", "1000", "--out", str(tmp_path), "--quiet", "--set", "env.n_envs=2",
+           "--set", "run.eval_every_episodes=1000"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline, workers = time.time() + 180, []
+        while time.time() < deadline:  # forkserver: the workers are the trainer's grandchildren
+            runs = list(tmp_path.glob("PointNav__*"))
+            workers = [g for c in psutil.Process(proc.pid).children() for g in c.children()]
+            if runs and len(workers) == 2 and len(episodes_in(runs[0]) if (runs[0] / "episodes.csv").is_file()
+                                                 else []) >= 2:
+                break
+            time.sleep(0.1)
+        else:
+            raise AssertionError("the run never logged two episodes with two workers")
+        workers[0].kill()
+        killed_at = time.time()
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert time.time() - killed_at < 60 and proc.returncode == 1
+    (run_dir,) = runs
+    line = stderr.strip().splitlines()[-1]
+    saved = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())["episodes"]
+    assert re.fullmatch(rf"relmogen: error: environment worker [01] died: killed by signal SIGKILL; checkpoint at "
+                        rf"episode {saved} written; continue with: relmogen train --resume {re.escape(str(run_dir))}",
+                        line), line
+    assert json.loads((latest_replay(run_dir).parent / "state.json").read_text())["episodes"] == saved
+    assert saved >= 2 and not (run_dir / "done.json").exists()
+    assert main(["train", "--resume", str(run_dir), "--episodes", str(saved + 2), "--quiet"]) == 0
+    assert episodes_in(run_dir) == list(range(1, saved + 3))
+
+
+def test_a_cpu_time_budget_stops_the_run_once_trainer_and_workers_spent_it(tmp_path):
+    from relmogen.experiments.train import process_tree_cpu_seconds
+
+    budget_s = process_tree_cpu_seconds() + 5.0  # the process's CPU so far counts too: a new process starts at 0
+    config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=1000,
+                            overrides=[f"max_cpu_hours={budget_s / 3600}", "run.eval_every_episodes=1000"])
+    run_dir = train(config, tmp_path, quiet=True)
+    done = json.loads((run_dir / "done.json").read_text())
+    assert 1 <= done["episodes"] < 1000 and done["cpu_time_s"] >= budget_s
+    assert read_config(run_dir / "config.yaml").max_cpu_hours == pytest.approx(budget_s / 3600)
