@@ -103,14 +103,16 @@ def new_manifest(spec: SweepSpec) -> dict:
     return {"version": MANIFEST_VERSION, "spec": asdict(spec), "runs": runs}
 
 
-def find_run_dir(out: Path, key: str) -> Path | None:
-    """The run directory of ``key`` under ``out/runs`` (the newest, should there be several); a
-    folder left without ``config.yaml`` by a kill at its creation is removed."""
+def find_run_dir(out: Path, key: str, remove_empty: bool = False) -> Path | None:
+    """The run directory of ``key`` under ``out/runs`` (the newest, should there be several). With
+    ``remove_empty`` (only the process about to train that run), an empty folder left by a kill at
+    its creation is removed; readers such as the live table must not, or they race ``train``
+    between its mkdir and its config.yaml."""
     found = []
     for path in sorted((Path(out) / RUNS).glob(f"{key}__*")):
         if (path / "config.yaml").is_file():
             found.append(path)
-        elif path.is_dir() and not any(path.iterdir()):
+        elif remove_empty and path.is_dir() and not any(path.iterdir()):
             path.rmdir()
     return found[-1] if found else None
 
@@ -125,7 +127,7 @@ def execute_run(out: str, key: str, spec: dict) -> dict:
     (out / STATUS).mkdir(exist_ok=True)
     (out / STATUS / f"{key}.json").write_text(json.dumps({"host": socket.gethostname(), "pid": os.getpid(),
                                                            "time": time.time()}))
-    run_dir = find_run_dir(out, key)
+    run_dir = find_run_dir(out, key, remove_empty=True)
     if run_dir is None:
         run_dir = train(SweepSpec(**spec).config(*split_key(key)), out / RUNS, quiet=True)
     elif not (run_dir / "done.json").is_file():
