@@ -138,13 +138,9 @@ def resize_replay_buffer(buffer: ReplayBuffer, transitions: int) -> None:
         fresh[: len(keep)] = array[keep]
         return fresh
 
-    for name, value in vars(buffer).items():
-        if isinstance(value, np.ndarray) and value.ndim and value.shape[0] == old_rows:
-            setattr(buffer, name, resized(value))
-        elif isinstance(value, dict):
-            for key, array in value.items():
-                if isinstance(array, np.ndarray) and array.shape[0] == old_rows:
-                    value[key] = resized(array)
+    state = vars(buffer)
+    for parent, key in list(_row_arrays(state, old_rows)):
+        _container(state, parent)[key] = resized(_container(state, parent)[key])
     buffer.buffer_size = rows
     buffer.pos = len(keep) % rows
     buffer.full = len(keep) == rows
