@@ -137,7 +137,7 @@ def table_pixels(env: RelmogenEnv) -> list[tuple[int, int]]:
     pixels = []
     for row in range(0, frame.depth.shape[0], TABLE_PIXEL_STRIDE):
         for col in range(0, frame.depth.shape[1], TABLE_PIXEL_STRIDE):
-            if frame.depth[row, col] <= 0.0:
+            if not frame.has_point(row, col):
                 continue
             point = env.camera.pixel_to_world(frame, col, row)
             offset = point[:2] - (x, y)

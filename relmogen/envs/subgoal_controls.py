@@ -131,8 +131,7 @@ class SubgoalControl(Control):
         is beyond the arm's reach (``within_arm_reach``), is a no-op without any IK."""
         rewards = RewardAccumulator(self.env)
         env = self.env
-        depth = float(env.last_frame.depth[pixel_row, pixel_col])
-        if depth <= 0.0:
+        if not env.last_frame.has_point(pixel_row, pixel_col):
             return self._arm_no_op("pixel has no depth", rewards)
         point = env.camera.pixel_to_world(env.last_frame, pixel_col, pixel_row)
         if not within_arm_reach(env, point):

@@ -5,7 +5,10 @@ Camera conventions
     row-major ``(H, W)``; pixel ``(u, v)`` is column ``u``, row ``v``. Depth is the distance
     along the optical axis in metres (float32). Pixels nearer than ``min_depth`` or farther
     than ``max_depth`` have no valid return and read ``0.0`` (as real RGB-D sensors report
-    them); ``CameraIntrinsics.deproject`` refuses them.
+    them); ``CameraIntrinsics.deproject`` refuses them. That clipped depth is the observation.
+    The 3D point behind a pixel (an arm subgoal, the arm mask) comes from ``point_depth``, the
+    renderer's depth without the sensor's range, as the original's arm subgoal came from
+    iGibson's unclipped ``3d`` render: a door 0.3 m in front of the robot still has points.
 
 LiDAR conventions
     ``num_rays`` rays evenly spread over ``fov`` centred on the LiDAR link's +x axis, in the
@@ -79,9 +82,20 @@ class CameraIntrinsics:
 @dataclass(frozen=True)
 class CameraFrame:
     rgb: np.ndarray  # (H, W, 3) uint8
-    depth: np.ndarray  # (H, W) float32 metres, INVALID_DEPTH where out of range
+    depth: np.ndarray  # (H, W) float32 metres, INVALID_DEPTH where out of the sensor's range
     position: np.ndarray  # camera origin in the world
     rotation: np.ndarray  # 3x3 camera link -> world
+    # (H, W) float32 metres, INVALID_DEPTH only where the ray hits nothing; None: same as depth
+    point_depth: np.ndarray | None = None
+
+    @property
+    def points_depth(self) -> np.ndarray:
+        """The depth the pixels' 3D points are taken from (``point_depth``, else ``depth``)."""
+        return self.depth if self.point_depth is None else self.point_depth
+
+    def has_point(self, row: int, col: int) -> bool:
+        """Whether pixel (row, col) sees a surface, so that it has a 3D point."""
+        return bool(self.points_depth[row, col] > INVALID_DEPTH)
 
 
 class Camera:
@@ -110,7 +124,7 @@ class Camera:
             rgba, zbuffer = self._render(position + np.asarray(rotation) @ np.asarray(shift), rotation)
             nan = np.isnan(zbuffer)
             if not nan.any():
-                return CameraFrame(rgba[..., :3], self._linearise(zbuffer), position, np.asarray(rotation))
+                return self._frame(rgba, zbuffer, nan, position, rotation)
             if not nan.all() and (best is None or nan.sum() < best_nan.sum()):
                 best, best_nan = (rgba, zbuffer), nan
         if best is None:
@@ -118,10 +132,15 @@ class Camera:
             height, width = self.intrinsics.height, self.intrinsics.width
             return CameraFrame(np.zeros((height, width, 3), np.uint8), np.full((height, width), INVALID_DEPTH,
                                                                              np.float32), position, np.asarray(rotation))
-        rgba, zbuffer = best
-        depth = self._linearise(np.nan_to_num(zbuffer, nan=1.0))
-        depth[best_nan.reshape(depth.shape)] = INVALID_DEPTH
-        return CameraFrame(rgba[..., :3], depth, position, np.asarray(rotation))
+        return self._frame(*best, best_nan, position, rotation)
+
+    def _frame(self, rgba: np.ndarray, zbuffer: np.ndarray, nan: np.ndarray, position: np.ndarray,
+               rotation: np.ndarray) -> CameraFrame:
+        point_depth = self._linearise(np.nan_to_num(zbuffer, nan=1.0))
+        point_depth[nan.reshape(point_depth.shape) | (point_depth >= _FAR_PLANE * 0.999)] = INVALID_DEPTH
+        depth = point_depth.copy()
+        depth[(depth < self.min_depth) | (depth > self.max_depth)] = INVALID_DEPTH
+        return CameraFrame(rgba[..., :3], depth, position, np.asarray(rotation), point_depth)
 
     def _render(self, eye: np.ndarray, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         view = p.computeViewMatrix(eye, eye + rotation[:, 0], rotation[:, 2])
@@ -135,22 +154,20 @@ class Camera:
 
     def _linearise(self, zbuffer: np.ndarray) -> np.ndarray:
         depth = _FAR_PLANE * _NEAR_PLANE / (_FAR_PLANE - (_FAR_PLANE - _NEAR_PLANE) * zbuffer)
-        depth = depth.reshape(self.intrinsics.height, self.intrinsics.width).astype(np.float32)
-        depth[(depth < self.min_depth) | (depth > self.max_depth)] = INVALID_DEPTH
-        return depth
+        return depth.reshape(self.intrinsics.height, self.intrinsics.width).astype(np.float32)
 
     def pixel_to_world(self, frame: CameraFrame, u: int, v: int) -> np.ndarray:
         """The world point seen at pixel ``(u, v)`` of ``frame``; ValueError if it has no depth."""
         h, w = frame.depth.shape
         if not (0 <= u < w and 0 <= v < h):
             raise ValueError(f"pixel ({u}, {v}) outside the {w}x{h} image")
-        local = self.intrinsics.deproject(u, v, float(frame.depth[v, u]))
+        local = self.intrinsics.deproject(u, v, float(frame.points_depth[v, u]))
         return frame.position + frame.rotation @ local
 
     def pixels_to_world(self, frame: CameraFrame, us: np.ndarray, vs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World points seen at integer pixel arrays ``us``, ``vs`` (same shape S) -> (S + (3,)) points
         and an S bool array of pixels with depth (points there are NaN)."""
-        depth = frame.depth[vs, us].astype(np.float64)
+        depth = frame.points_depth[vs, us].astype(np.float64)
         valid = depth > INVALID_DEPTH
         local = self.intrinsics.deproject_many(us, vs, np.where(valid, depth, np.nan))
         return frame.position + local @ frame.rotation.T, valid

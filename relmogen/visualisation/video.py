@@ -91,7 +91,7 @@ def _world_pose(env, goal_robot_frame: np.ndarray) -> np.ndarray:
 def _arm_subgoal(env, row: int, col: int, push_base: np.ndarray) -> Subgoal:
     """The arm subgoal at pixel (row, col): the point seen there and where its push ends on the image."""
     frame = env.last_frame
-    if frame.depth[row, col] <= 0.0:
+    if not frame.has_point(row, col):
         return Subgoal("arm", pixel=(row, col))
     point = env.camera.pixel_to_world(frame, col, row)
     push_world = to_world(push_base, (0.0, 0.0, env.robot.base_pose()[2]))

@@ -127,10 +127,10 @@ def test_arm_mask_marks_pixels_with_depth_within_reach_and_masked_pushes_find_no
     for i in range(control.q):
         for j in range(control.q):
             row, col = 4 * i + 2, 4 * j + 2
-            if frame.depth[row, col] > 0:
+            if frame.has_point(row, col):
                 expected[i, j] = np.linalg.norm(env.camera.pixel_to_world(frame, col, row) - shoulder) <= reach
     np.testing.assert_array_equal(info["arm_mask"], expected)
-    far = [(int(i), int(j)) for i, j in np.argwhere(~expected) if frame.depth[4 * i + 2, 4 * j + 2] > 0]
+    far = [(int(i), int(j)) for i, j in np.argwhere(~expected) if frame.has_point(4 * i + 2, 4 * j + 2)]
     assert far, "expected pixels beyond the arm's reach in a corridor view"
     for i, j in far[:2]:
         _, _, _, _, step_info = env.step(control.encode("arm", 0, i, j))
@@ -210,7 +210,7 @@ def test_pointnav_subgoals_are_base_only(nav):
 def test_arm_pixel_without_depth_is_a_no_op_with_a_reason():
     nav = RelmogenEnv(task="PushDoorNav", control="subgoal-r", image_size=64)
     nav.reset(seed=0)
-    nav.last_frame.depth[0, 0] = 0.0  # force: the top-left pixel has no return
+    nav.last_frame.points_depth[0, 0] = 0.0  # force: the top-left pixel sees nothing
     before = world_snapshot(nav)
     action = np.array([-1, 0, 0, 0, -1, -1, 0.5, 0], dtype=np.float32)
     _, reward, _, _, info = nav.step(action)

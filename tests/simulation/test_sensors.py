@@ -60,10 +60,22 @@ def test_out_of_range_depth_reads_invalid_and_cannot_be_deprojected(world):
     assert frame.depth.dtype == np.float32 and frame.rgb.dtype == np.uint8
     assert frame.depth[64, 64] == INVALID_DEPTH
     assert frame.depth[0, 0] == INVALID_DEPTH  # nothing there at all (beyond 3 m)
-    with pytest.raises(ValueError, match="no valid depth"):
-        camera.pixel_to_world(frame, 64, 64)
     with pytest.raises(ValueError, match="outside"):
         camera.pixel_to_world(frame, 200, 3)
+
+
+def test_a_surface_nearer_than_the_sensor_range_still_has_points_but_empty_space_has_none(world):
+    """The original's arm subgoal came from iGibson's unclipped 3D render: a door 0.15 m ahead
+    has no depth reading but its points can still be reached for."""
+    add_box(world.client, [0.2, 0.0, 1.0], [0.05, 0.5, 0.5])  # face 0.15 m ahead
+    camera = Camera(world.client)
+    frame = camera.capture(np.array([0.0, 0.0, 1.0]), np.eye(3))
+    assert frame.depth[64, 64] == INVALID_DEPTH and frame.has_point(64, 64)
+    assert camera.pixel_to_world(frame, 64, 64)[0] == pytest.approx(0.15, abs=0.01)
+    empty = camera.capture(np.array([0.0, 0.0, 1.0]), yaw_rotation(np.pi))  # facing away: nothing there
+    assert not empty.has_point(64, 64)
+    with pytest.raises(ValueError, match="no valid depth"):
+        camera.pixel_to_world(empty, 64, 64)
 
 
 def test_lidar_measures_distance_to_walls(world):
