@@ -23,6 +23,10 @@
     relmogen report RUN_DIRS... --out DIR
     relmogen report --table1 DIR
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
+    relmogen viz subgoals RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
+                          [--stochastic] [--robot NAME] [--out PNG]
+    relmogen viz exploration RUN_DIR... [--checkpoint latest|best|PATH] [--episodes N] [--pca-episodes N]
+                             [--seed S] [--deterministic] [--out-dir DIR]
 """
 
 from __future__ import annotations
@@ -94,7 +98,7 @@ def cmd_oracle(args: argparse.Namespace) -> int:
     result = run_oracle(args.task, args.episodes, args.policy, args.control, args.seed, args.scene,
                         args.base_planner, args.arm_planner, args.arm_collision == "on", quiet=args.json,
                         video=Path(args.video) if args.video else None, image_size=args.image_size,
-                        push_frame=args.push_frame)
+                        push_frame=args.push_frame, qmap_size=args.qmap_size, robot=args.robot)
     _print_metrics(result, args.json, f"{args.task}: {args.policy} subgoals")
     return 0
 
@@ -104,17 +108,28 @@ def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.env_workers import EnvWorkerError
     from relmogen.experiments.train import resume, run_config_file, train
 
+    overrides = args.set + ([f"env.robot={args.robot}"] if args.robot else [])
     try:
         if args.resume:
+            if args.init_from or args.init_replay:
+                raise ValueError("--init-from / --init-replay start a new run; --resume continues one: give one of them")
             run_config_file(Path(args.resume))
             run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours,
-                             overrides=args.set)
+                             overrides=overrides)
         else:
-            if not args.task or not args.algo:
-                raise ValueError("--task and --algo are required unless --resume is given")
-            config = resolve_config(args.task, args.algo, args.seed, args.preset, args.episodes or 1000, args.device,
-                                    args.set, args.max_hours)
-            run_dir = train(config, Path(args.out), quiet=args.quiet)
+            task, algo = args.task, args.algo
+            if args.init_from and not (task and algo):  # the source run's, unless given
+                from relmogen.experiments.config import read_config
+                from relmogen.experiments.evaluate import resolve_checkpoint
+
+                source = read_config(resolve_checkpoint(Path(args.init_from))[1] / "config.yaml")
+                task, algo = task or source.task, algo or source.algo
+            if not task or not algo:
+                raise ValueError("--task and --algo are required unless --resume (or --init-from) is given")
+            config = resolve_config(task, algo, args.seed, args.preset, args.episodes or 1000, args.device,
+                                    overrides, args.max_hours)
+            run_dir = train(config, Path(args.out), quiet=args.quiet,
+                            init_from=Path(args.init_from) if args.init_from else None, init_replay=args.init_replay)
     except EnvWorkerError as error:  # checkpoint written; one line that says how to continue
         print(f"relmogen: error: {error}", file=sys.stderr)
         return 1
@@ -168,7 +183,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
                            args.arm_collision == "on", args.scene, args.device, quiet=args.json,
                            stochastic=args.stochastic, skip_no_ops=args.skip_no_ops, checkpoint=args.checkpoint,
-                           video=Path(args.video) if args.video else None)
+                           video=Path(args.video) if args.video else None, robot=args.robot)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
     return 0
 
@@ -196,6 +211,29 @@ def cmd_viz_qmap(args: argparse.Namespace) -> int:
     if args.drive == "oracle":
         fields = json.loads((Path(args.out) / "oracle_cells.json").read_text())
         print(json.dumps({key: value for key, value in fields.items() if key != "states"}))
+    return 0
+
+
+def cmd_viz_subgoals(args: argparse.Namespace) -> int:
+    from relmogen.visualisation.subgoals import subgoal_figure
+
+    result = subgoal_figure(Path(args.run), Path(args.out), args.episodes, args.seed, args.checkpoint, args.device,
+                            args.stochastic, args.robot)
+    print(result["figure"])
+    print(json.dumps({key: value for key, value in result.items() if key not in ("episode_records", "base", "arm")}))
+    return 0
+
+
+def cmd_viz_exploration(args: argparse.Namespace) -> int:
+    from relmogen.visualisation.exploration import exploration_figure
+
+    result = exploration_figure([Path(run) for run in args.runs], Path(args.out_dir), args.episodes, args.seed,
+                                args.pca_episodes, args.checkpoint, args.device, stochastic=not args.deterministic)
+    print(result["figure"])
+    for run in result["runs"]:
+        print(json.dumps({"run": run["run"], "algo": run["algo"], "checkpoint_episode": run["checkpoint_episode"],
+                          "median_relative_step": run["pca"]["median_relative_step"],
+                          "coverage_m2": run["coverage_m2"], "interactions": run["interaction_count"]}))
     return 0
 
 
@@ -246,14 +284,15 @@ def _bench_planner(args: argparse.Namespace) -> int:
     from relmogen.bench.planner_bench import bench_planner, planning_runs, print_planner_table
 
     if args.json:
-        print(json.dumps(bench_planner(problems=args.problems, seed=args.seed), sort_keys=True))
+        print(json.dumps(bench_planner(problems=args.problems, seed=args.seed, robot=args.robot), sort_keys=True))
         return 0
     from rich.console import Console
     from rich.progress import Progress
 
     with Progress(console=Console(stderr=True), transient=True) as progress:
         task = progress.add_task("planning", total=planning_runs(args.problems))
-        result = bench_planner(problems=args.problems, seed=args.seed, advance=lambda: progress.advance(task))
+        result = bench_planner(problems=args.problems, seed=args.seed, advance=lambda: progress.advance(task),
+                               robot=args.robot)
     print_planner_table(result)
     return 0
 
@@ -298,8 +337,11 @@ def _add_oracle(sub) -> None:
                         help="subgoal-d: each oracle action executed as the nearest discrete SGP-D action")
     oracle.add_argument("--image-size", type=_positive_int, default=128, help="camera resolution (default 128)")
     oracle.add_argument("--push-frame", choices=["base", "surface"], default="base", help="subgoal-d's push bins")
+    oracle.add_argument("--qmap-size", type=_positive_int, default=None,
+                        help="subgoal-d's Q-map side (default: image size / 4, the paper's)")
     oracle.add_argument("--seed", type=int, default=0, help="seed of the first episode (default 0)")
     oracle.add_argument("--scene", default=None, help="scene name, e.g. office_B (default: the task's, layout A)")
+    oracle.add_argument("--robot", default="fetch", metavar="NAME", help="robot: fetch (default) or movo")
     _add_planner_options(oracle, default="rrt_connect")
     oracle.add_argument("--video", "--gif", dest="video", default=None, metavar="PATH",
                         help="also record one episode, annotated, to this .gif or .mp4")
@@ -320,7 +362,7 @@ def _add_planner_options(parser: argparse.ArgumentParser, default: str | None) -
 def _add_train(sub) -> None:
     train = sub.add_parser("train", help="train a policy (SB3), with checkpoints and resume")
     train.add_argument("--task", help="task name (relmogen tasks lists them)")
-    train.add_argument("--algo", help="relmogen-r, relmogen-d, sac or oac")
+    train.add_argument("--algo", help="relmogen-r, relmogen-d, sac, oac or hrl4in")
     train.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
     train.add_argument("--preset", default="cpu",
                        help="a preset of relmogen/configs/presets (cpu, paper, tiny; default cpu) or the path of a "
@@ -334,6 +376,13 @@ def _add_train(sub) -> None:
                             "learning parameters only (e.g. algo.exploration_final_eps=0.2, algo.buffer_size=50000)")
     train.add_argument("--resume", default=None, metavar="RUN_DIR",
                        help="continue this run from its latest checkpoint instead of starting one")
+    train.add_argument("--robot", default=None, metavar="NAME",
+                       help="the embodiment, a folder of relmogen/robots/assets (fetch, movo): --set env.robot=NAME")
+    train.add_argument("--init-from", default=None, metavar="RUN_OR_CHECKPOINT",
+                       help="fine-tune: a new run starting from the weights of this run's latest checkpoint (or of "
+                            "this checkpoint folder); same algorithm and spaces; --task/--algo default to its own")
+    train.add_argument("--init-replay", action="store_true",
+                       help="with --init-from: start with that run's latest replay buffer too")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(func=cmd_train)
 
@@ -342,7 +391,7 @@ def _add_sweep(sub) -> None:
     sweep = sub.add_parser("sweep", help="train every (task, algorithm, seed) on Ray or one by one, then report "
                                          "Table I")
     sweep.add_argument("--tasks", nargs="+", default=[], metavar="T", help="tasks (relmogen tasks lists them)")
-    sweep.add_argument("--algos", nargs="+", default=[], metavar="A", help="relmogen-r, relmogen-d, sac, oac")
+    sweep.add_argument("--algos", nargs="+", default=[], metavar="A", help="relmogen-r, relmogen-d, sac, oac, hrl4in")
     sweep.add_argument("--seeds", nargs="+", type=int, default=[], metavar="S", help="training seeds")
     sweep.add_argument("--preset", default="cpu", help="preset name or YAML file, as for train (default cpu)")
     sweep.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
@@ -381,6 +430,8 @@ def _add_eval(sub) -> None:
                           help="seed of the first episode; the others follow (default 100000)")
     _add_planner_options(evaluate, default=None)
     evaluate.add_argument("--scene", default=None, help="A or B (or a full scene name)")
+    evaluate.add_argument("--robot", default=None, metavar="NAME",
+                          help="evaluate on this robot instead of the run's (fetch, movo; the spaces must match)")
     evaluate.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
     evaluate.add_argument("--stochastic", action="store_true",
                           help="sample SGP-R/SAC actions instead of the deterministic mean; "
@@ -418,6 +469,36 @@ def _add_viz(sub) -> None:
                            "(the state before each of its pushes drawn, its cell outlined and ranked)")
     qmap.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
     qmap.set_defaults(func=cmd_viz_qmap)
+    subgoals = viz_sub.add_parser("subgoals", help="where a ReLMoGen policy's base subgoals end and its arm subgoals "
+                                                   "land, top-down and on the camera, with a JSON of the points")
+    subgoals.add_argument("run", metavar="RUN_DIR_OR_CHECKPOINT", help="a relmogen-r or relmogen-d run or checkpoint")
+    subgoals.add_argument("--checkpoint", default="latest", metavar=CHECKPOINT_METAVAR,
+                          help="which model of the run (default latest)")
+    subgoals.add_argument("--episodes", type=_positive_int, default=10, help="evaluation episodes (default 10)")
+    subgoals.add_argument("--seed", type=int, default=100_000, help="seed of the first episode (default 100000)")
+    subgoals.add_argument("--stochastic", action="store_true", help="sample actions instead of the greedy policy")
+    subgoals.add_argument("--robot", default=None, metavar="NAME",
+                          help="run the policy on this robot instead of the run's (fetch, movo; the spaces must match)")
+    subgoals.add_argument("--out", default="out/subgoals.png", help="the PNG; its points go beside it as .json "
+                                                                   "(default out/subgoals.png)")
+    subgoals.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
+    subgoals.set_defaults(func=cmd_viz_subgoals)
+    exploration = viz_sub.add_parser("exploration", help="exploration of runs (paper Fig. 6): PCA of state "
+                                                         "embeddings, base positions, interactions >= 1 s")
+    exploration.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run directories or checkpoints, any algorithm")
+    exploration.add_argument("--checkpoint", default="latest", metavar=CHECKPOINT_METAVAR,
+                             help="which model of each run (default latest)")
+    exploration.add_argument("--episodes", type=_positive_int, default=10,
+                             help="episodes per run for positions and interactions (default 10)")
+    exploration.add_argument("--pca-episodes", type=_positive_int, default=10,
+                             help="of those, the first N drawn in the PCA panel (default 10)")
+    exploration.add_argument("--seed", type=int, default=0, help="seed of the first episode (default 0)")
+    exploration.add_argument("--deterministic", action="store_true",
+                             help="the greedy policy instead of sampled actions (as during training)")
+    exploration.add_argument("--out-dir", default="out/exploration",
+                             help="folder for exploration.png and exploration.json (default out/exploration)")
+    exploration.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
+    exploration.set_defaults(func=cmd_viz_exploration)
 
 
 def _add_report(sub) -> None:
@@ -447,6 +528,7 @@ def _add_bench(sub) -> None:
     bench.add_argument("--problems", type=_positive_int, default=PLANNER_PROBLEMS_DEFAULT,
                        help=f"planner: problems per category (default {PLANNER_PROBLEMS_DEFAULT})")
     bench.add_argument("--seed", type=int, default=0, help="seed of the problems or samples (default 0)")
+    bench.add_argument("--robot", default="fetch", metavar="NAME", help="planner: the robot planned for (default fetch)")
     bench.add_argument("--json", action="store_true", help="print the results as one JSON object")
     bench.set_defaults(func=cmd_bench)
 

@@ -180,7 +180,7 @@ class QMapQNetwork(BasePolicy):
                  normalize_images: bool = False):
         super().__init__(observation_space, action_space, normalize_images=False)  # the net scales its inputs
         self.widths, self.head_width, self.skip = tuple(widths), int(head_width), bool(skip)
-        self.net = QMapNetwork(observation_space, self.widths, self.head_width, self.skip)
+        self.net = QMapNetwork(observation_space, self.widths, self.head_width, self.skip, q=map_side(action_space.n))
         if self.net.n_actions != action_space.n:
             raise ValueError(f"Q maps give {self.net.n_actions} actions, the action space has {action_space.n}")
 

@@ -66,6 +66,8 @@ class SGPREncoder(BaseFeaturesExtractor):
         height, width = (rgb_shape[1:] if self.channels_first else rgb_shape[:2])
         super().__init__(observation_space, features_dim=image_dim + scan_dim + task_dim)
         self.image_conv, self.image_fc = _image_branch(4, height, width, image_dim)
+        # channels-last convolutions (oneDNN on CPU): updates 64 -> 60 ms of CPU at 64 px, batch 64
+        self.image_conv.to(memory_format=th.channels_last)
         self.scan = _scan_branch(observation_space["scan"].shape[0], scan_dim)
         task_in = observation_space["task_obs"].shape[0]
         self.task = nn.Sequential(nn.Linear(task_in, 128), nn.ReLU(), nn.Linear(128, 128), nn.ReLU(),
@@ -97,7 +99,7 @@ class SGPREncoder(BaseFeaturesExtractor):
         images = self.image_tensor(observations)
         if self.augmenting and self.image_shift:
             images = random_shift(images, self.image_shift)
-        image = self.image_fc(self.image_conv(images))
+        image = self.image_fc(self.image_conv(images.contiguous(memory_format=th.channels_last)))
         scan = self.scan(self.scan_scaling(observations["scan"].float()).unsqueeze(1))
         task = self.task(self.task_scaling(observations["task_obs"].float()))
         return th.cat([image, scan, task], dim=1)

@@ -2,13 +2,14 @@
 
 Two convolutional branches, one over the RGB-D image (rgb / 255 and depth / 3 m, 4 channels)
 and one over the local map (C channels / 255), each 4 conv layers with stride 2 (S -> S/16),
-are concatenated on channels; 2 transposed convolutions with stride 2 bring them to S/4 = Q
-with ``YAW_BINS + PUSH_BINS`` = 24 output maps: channels 0..11 are the L base maps (one per
-yaw bin), channels 12..23 the K arm maps (one per push direction).
+are concatenated on channels; transposed convolutions with stride 2 bring them to Q with
+``YAW_BINS + PUSH_BINS`` = 24 output maps: channels 0..11 are the L base maps (one per yaw bin),
+channels 12..23 the K arm maps (one per push direction). The paper's Q = S/4 takes 2 of them;
+a finer map (``q``, e.g. the paper's 32 x 32 from 64 px inputs) takes one more per doubling.
 
-With ``skip`` (our addition, off by default) the head also sees the two branches' S/4
-features, U-Net style: the second deconvolution keeps ``head_width`` channels, is concatenated
-with the image and map features after their second conv (already at Q x Q), and two 1x1
+With ``skip`` (our addition, off by default) the head also sees the two branches' Q x Q
+features, U-Net style: the last deconvolution keeps ``head_width`` channels, is concatenated
+with the image and map features after the conv that brings them to Q x Q, and two 1x1
 convolutions give the maps (a 3x3 one made updates 1.8x slower than without the skip; the
 1x1 pair, 1.2x). A 4 x 4 bottleneck at 64 px (S/16) has to place a 1-2 cell button from
 16 x 16 px features; the skip gives each cell its own local features.
@@ -57,32 +58,45 @@ def conv_branch(in_channels: int, widths: tuple[int, ...]) -> nn.Sequential:
     return nn.Sequential(*layers)
 
 
-def deconv_head(in_channels: int, hidden: int, out_channels: int) -> nn.Sequential:
-    """Two 4x4 transposed convolutions with stride 2 (x4 resolution); linear output."""
-    return nn.Sequential(
-        nn.ConvTranspose2d(in_channels, hidden, 4, stride=2, padding=1), nn.ReLU(),
-        nn.ConvTranspose2d(hidden, out_channels, 4, stride=2, padding=1),
-    )
+def upsampling(in_channels: int, hidden: int, out_channels: int, stages: int, relu_last: bool) -> list[nn.Module]:
+    """``stages`` 4x4 transposed convolutions with stride 2 (x 2^stages resolution)."""
+    layers: list[nn.Module] = []
+    for stage in range(stages):
+        last = stage == stages - 1
+        layers.append(nn.ConvTranspose2d(in_channels, out_channels if last else hidden, 4, stride=2, padding=1))
+        if not last or relu_last:
+            layers.append(nn.ReLU())
+        in_channels = hidden
+    return layers
 
 
-SKIP_DEPTH = 4  # modules of a conv branch (2 convs + ReLUs) before its S/4 features
+def deconv_head(in_channels: int, hidden: int, out_channels: int, stages: int = 2) -> nn.Sequential:
+    """``stages`` transposed convolutions (the paper's 2: S/16 -> S/4); linear output."""
+    return nn.Sequential(*upsampling(in_channels, hidden, out_channels, stages, relu_last=False))
 
 
-def skip_head(in_channels: int, skip_channels: int, hidden: int, out_channels: int) -> nn.ModuleDict:
+def skip_head(in_channels: int, skip_channels: int, hidden: int, out_channels: int, stages: int = 2) -> nn.ModuleDict:
     """Deconvolutions to Q x Q hidden features, then (with the skip features) two 1x1 convs to the maps."""
     return nn.ModuleDict({
-        "up": nn.Sequential(nn.ConvTranspose2d(in_channels, hidden, 4, stride=2, padding=1), nn.ReLU(),
-                            nn.ConvTranspose2d(hidden, hidden, 4, stride=2, padding=1), nn.ReLU()),
+        "up": nn.Sequential(*upsampling(in_channels, hidden, hidden, stages, relu_last=True)),
         "out": nn.Sequential(nn.Conv2d(hidden + skip_channels, hidden, 1), nn.ReLU(),
                              nn.Conv2d(hidden, out_channels, 1)),
     })
+
+
+def downsampling_convs(image_size: int, q: int) -> int:
+    """How many of the 4 stride-2 convs bring the image to Q x Q (2 for the paper's Q = S/4)."""
+    ratio = image_size // q
+    if q < 1 or image_size % q or ratio & (ratio - 1) or not 2 <= ratio <= 8:
+        raise ValueError(f"Q maps of {q} x {q} need an image size of 2, 4 or 8 times that, got {image_size}")
+    return ratio.bit_length() - 1
 
 
 class QMapNetwork(nn.Module):
     """Observation dict -> Q values over all SGP-D actions, (B, (L + K) * Q * Q)."""
 
     def __init__(self, observation_space: spaces.Dict, widths: tuple[int, ...] = (32, 64, 64, 128),
-                 head_width: int = 128, skip: bool = False):
+                 head_width: int = 128, skip: bool = False, q: int | None = None):
         super().__init__()
         if len(widths) != 4:
             raise ValueError(f"QMapNetwork needs 4 conv widths (S -> S/16), got {widths}")
@@ -92,15 +106,18 @@ class QMapNetwork(nn.Module):
         self.image_size = rgb_space.shape[-1] if self.rgb_channels_first else rgb_space.shape[0]
         if self.image_size % 16:
             raise ValueError(f"QMapNetwork needs an image size divisible by 16, got {self.image_size}")
-        self.q = self.image_size // Q_DOWNSAMPLE
+        self.q = self.image_size // Q_DOWNSAMPLE if q is None else int(q)
+        convs_to_q = downsampling_convs(self.image_size, self.q)
+        self.skip_depth = 2 * convs_to_q  # modules (conv + ReLU each) of a branch before its Q x Q features
         map_channels = map_space.shape[0] if self.map_channels_first else map_space.shape[-1]
         self.image_branch = conv_branch(4, widths)
         self.map_branch = conv_branch(map_channels, widths)
         self.skip = bool(skip)
+        stages = len(widths) - convs_to_q
         if self.skip:
-            self.head = skip_head(2 * widths[-1], 2 * widths[1], head_width, NUM_MAPS)
+            self.head = skip_head(2 * widths[-1], 2 * widths[convs_to_q - 1], head_width, NUM_MAPS, stages)
         else:
-            self.head = deconv_head(2 * widths[-1], head_width, NUM_MAPS)
+            self.head = deconv_head(2 * widths[-1], head_width, NUM_MAPS, stages)
 
     @property
     def n_actions(self) -> int:
@@ -121,9 +138,9 @@ class QMapNetwork(nn.Module):
         image, local_map = self.image_tensor(obs), self.map_tensor(obs)
         if not self.skip:
             return self.head(th.cat([self.image_branch(image), self.map_branch(local_map)], dim=1))
-        image_q = self.image_branch[:SKIP_DEPTH](image)
-        map_q = self.map_branch[:SKIP_DEPTH](local_map)
-        bottleneck = th.cat([self.image_branch[SKIP_DEPTH:](image_q), self.map_branch[SKIP_DEPTH:](map_q)], dim=1)
+        depth = self.skip_depth
+        image_q, map_q = self.image_branch[:depth](image), self.map_branch[:depth](local_map)
+        bottleneck = th.cat([self.image_branch[depth:](image_q), self.map_branch[depth:](map_q)], dim=1)
         return self.head["out"](th.cat([self.head["up"](bottleneck), image_q, map_q], dim=1))
 
     def forward(self, obs: dict[str, th.Tensor]) -> th.Tensor:

@@ -182,11 +182,11 @@ def _base_summary(problems: list[BaseProblem], feasible: set[int]) -> dict:
     }
 
 
-def bench_planner(problems: int = 3, seed: int = 0, advance: Progress | None = None) -> dict:
-    """Run the suite (``problems`` per category) and return one JSON-ready dict."""
+def bench_planner(problems: int = 3, seed: int = 0, advance: Progress | None = None, robot: str = "fetch") -> dict:
+    """Run the suite (``problems`` per category) with ``robot`` and return one JSON-ready dict."""
     advance = advance or (lambda: None)
     start = time.perf_counter()
-    envs = make_envs()
+    envs = make_envs(robot)
     try:
         suite = base_problems(envs, problems, seed)
         base_attempts = run_base(suite, advance)
@@ -199,6 +199,7 @@ def bench_planner(problems: int = 3, seed: int = 0, advance: Progress | None = N
     base_stats, arm_stats = _per_backend(base_attempts, BASE_CATEGORIES), _per_backend(arm_attempts, ARM_CATEGORIES)
     return {
         "seed": seed,
+        "robot": robot,
         "problems_per_category": problems,
         "backends": list(BACKEND_NAMES),
         "base": _base_summary(suite, feasible),
@@ -215,7 +216,7 @@ def print_planner_table(result: dict) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"bench planner ({result['problems_per_category']} problems per category, "
+    table = Table(title=f"bench planner, {result.get('robot', 'fetch')} ({result['problems_per_category']} problems per category, "
                         f"seed {result['seed']}, {result['base']['feasible']} feasible base problems)")
     for column in ("backend", "kind", "success", "median ms", "p95 ms", "mean path", "success by category"):
         table.add_column(column, justify="left" if column in ("backend", "kind", "success by category") else "right")

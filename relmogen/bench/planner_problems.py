@@ -66,11 +66,11 @@ class ArmProblem:
     seed: int
 
 
-def make_envs() -> dict[str, RelmogenEnv]:
+def make_envs(robot: str = "fetch") -> dict[str, RelmogenEnv]:
     """One office and one house environment, each with a motion generator (subgoal-r)."""
-    return {"office": RelmogenEnv(task="PointNav", control="subgoal-r", image_size=32),
+    return {"office": RelmogenEnv(task="PointNav", control="subgoal-r", image_size=32, robot=robot),
             "house": RelmogenEnv(task="TabletopReachM", control="subgoal-r", image_size=32,
-                                 arm_collision=True)}
+                                 arm_collision=True, robot=robot)}
 
 
 # ----------------------------------------------------------------------------- scene helpers

@@ -7,7 +7,9 @@ second are measured on one environment of the preset's image size with random ac
 preset's ``n_envs`` workers run these in parallel). For SGP-R the same update is also timed
 with SB3's stock SAC (separate encoders for actor, critic and target), which is the cost our
 shared encoder avoids. For SGP-D the replay memory is reported too (bytes of the allocated
-arrays, per 1e4 transitions and at the preset's buffer size).
+arrays, per 1e4 transitions and at the preset's buffer size), and the update cost at each
+(image size, Q-map side) of ``QMAP_SETTINGS``. Then one real training run each of relmogen-r
+and relmogen-d (``bench_training_run``) gives episodes per CPU-hour.
 """
 
 from __future__ import annotations
@@ -48,11 +50,16 @@ def _fill_buffer(model, batch_size: int) -> float:
     return steps_per_second
 
 
-def _updates_per_second(model, updates: int, batch_size: int) -> float:
+def _time_updates(model, updates: int, batch_size: int) -> tuple[float, float]:
+    """Wall and CPU (this process) seconds per gradient update."""
     model.train(gradient_steps=1, batch_size=batch_size)  # warm-up (allocations, first kernels)
-    start = time.perf_counter()
+    wall, cpu = time.perf_counter(), time.process_time()
     model.train(gradient_steps=updates, batch_size=batch_size)
-    return updates / (time.perf_counter() - start)
+    return (time.perf_counter() - wall) / updates, (time.process_time() - cpu) / updates
+
+
+def _updates_per_second(model, updates: int, batch_size: int) -> float:
+    return 1.0 / _time_updates(model, updates, batch_size)[0]
 
 
 def _stock_sac(config, env):
@@ -62,16 +69,17 @@ def _stock_sac(config, env):
                                                      net_arch=params.net_arch), device="cpu", seed=0)
 
 
-def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0) -> dict:
-    config = resolve_config(task, algo, seed=seed, preset=preset)
+def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0, overrides: tuple[str, ...] = ()) -> dict:
+    config = resolve_config(task, algo, seed=seed, preset=preset, overrides=list(overrides))
     env = _vec_env(config)
     model = build_model(config, env)
     model._setup_learn(total_timesteps=1)  # creates the logger that train() records into
     batch = config.algo_params.batch_size
     env_sps = _fill_buffer(model, batch)
+    wall_s, cpu_s = _time_updates(model, updates, batch)
     result = {"task": task, "algo": algo, "preset": preset, "image_size": config.env.image_size,
-              "batch_size": batch, "env_steps_per_s": round(env_sps, 3),
-              "updates_per_s": round(_updates_per_second(model, updates, batch), 3)}
+              "batch_size": batch, "env_steps_per_s": round(env_sps, 3), "updates_per_s": round(1.0 / wall_s, 3),
+              "update_cpu_s": round(cpu_s, 4)}
     if algo == "relmogen-r":
         stock = _stock_sac(config, env)
         stock._setup_learn(total_timesteps=1)
@@ -79,6 +87,7 @@ def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0) ->
         result["stock_sb3_sac_updates_per_s"] = round(_updates_per_second(stock, updates, batch), 3)
         result["shared_encoder_speedup"] = round(result["updates_per_s"] / result["stock_sb3_sac_updates_per_s"], 3)
     if algo == "relmogen-d":
+        result["qmap_size"] = model.q
         buffer = model.replay_buffer
         result["replay_gib_per_1e4_transitions"] = round(buffer.nbytes() / buffer.buffer_size * 1e4 / 2**30, 4)
         result["replay_gib_at_preset_size"] = round(buffer.nbytes() / 2**30, 4)
@@ -96,10 +105,27 @@ def bench_train(task: str = "PushDoorNav", presets: tuple[str, ...] = ("cpu", "p
             runs.append(bench_one(task, algo, preset, updates))
             if advance is not None:
                 advance()
+    qmap_resolutions = bench_qmap_resolutions(task, updates)
     training_run = bench_training_run(task, "cpu", subgoals)
-    return {"task": task, "updates_timed": updates, "runs": runs, "training_run": training_run,
+    training_run_d = bench_training_run(task, "cpu", subgoals, algo="relmogen-d")
+    return {"task": task, "updates_timed": updates, "runs": runs, "qmap_resolutions": qmap_resolutions,
+            "training_run": training_run, "training_run_relmogen_d": training_run_d,
             "episodes_per_cpu_hour": training_run["episodes_per_cpu_hour"],
-            "subgoals_per_cpu_s": training_run["subgoals_per_cpu_s"]}
+            "subgoals_per_cpu_s": training_run["subgoals_per_cpu_s"],
+            "relmogen_d_episodes_per_cpu_hour": training_run_d["episodes_per_cpu_hour"]}
+
+
+QMAP_SETTINGS = ((64, 16), (64, 32), (128, 32))  # (image px, Q): the old cpu head, the cpu preset, the paper's
+
+
+def bench_qmap_resolutions(task: str, updates: int, preset: str = "cpu") -> list[dict]:
+    """relmogen-d update cost per batch (``update_cpu_s``: CPU seconds, the preset's network and
+    batch) at each (image, Q) of ``QMAP_SETTINGS``, each against the first in the same process."""
+    rows = [bench_one(task, "relmogen-d", preset, updates,
+                      overrides=(f"env.image_size={image}", f"env.qmap_size={q}")) for image, q in QMAP_SETTINGS]
+    for row in rows:  # CPU time: the machine may be shared, and the learner runs one torch thread
+        row["update_cost_vs_64px_q16"] = round(row["update_cpu_s"] / rows[0]["update_cpu_s"], 3)
+    return rows
 
 
 # ------------------------------------------------------------------ a real training run
@@ -120,8 +146,8 @@ class _Stopwatch:
 
 
 def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals: int = 1000,
-                       out: str | None = None) -> dict:
-    """One ``relmogen train`` run of relmogen-r (trainer and environment workers as training
+                       out: str | None = None, algo: str = "relmogen-r") -> dict:
+    """One ``relmogen train`` run of ``algo`` (trainer and environment workers as training
     makes them) for about ``subgoals`` subgoals past the preset's ``learning_starts``. CPU time
     (psutil, the process tree) and the trainer's wall-clock shares are counted from the first
     gradient update to the end of learning, so they describe the steady state of a long run."""
@@ -130,7 +156,7 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
 
     from relmogen.experiments import train as training
 
-    config = _bench_run_config(task, preset, subgoals)
+    config = _bench_run_config(task, preset, subgoals, algo)
     with tempfile.TemporaryDirectory(dir=out) as folder:
         run_dir = training.new_run_dir(Path(folder), config)
         model = training.build_model(config, training.make_training_env(config))
@@ -144,7 +170,8 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
     (cpu_start, wall_start, steps_start), (cpu_end, wall_end, steps_end, seconds) = marks["start"], marks["end"]
     cpu, wall, steps = cpu_end - cpu_start, wall_end - wall_start, steps_end - steps_start
     return {
-        "task": task, "algo": "relmogen-r", "preset": preset, "n_envs": config.env.n_envs,
+        "task": task, "algo": algo, "preset": preset, "n_envs": config.env.n_envs,
+        **({"qmap_size": model.q} if algo == "relmogen-d" else {}),
         "subgoals_timed": int(steps), "episodes_timed": episodes, "cpu_s": round(cpu, 2), "wall_s": round(wall, 2),
         "subgoals_per_cpu_s": round(steps / cpu, 3),
         "episodes_per_cpu_hour": round(episodes / cpu * 3600, 1),
@@ -153,10 +180,10 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
     }
 
 
-def _bench_run_config(task: str, preset: str, subgoals: int):
+def _bench_run_config(task: str, preset: str, subgoals: int, algo: str = "relmogen-r"):
     from relmogen.tasks import task_class
 
-    config = resolve_config(task, "relmogen-r", preset=preset, episodes=1,
+    config = resolve_config(task, algo, preset=preset, episodes=1,
                             overrides=["run.eval_every_episodes=1000000"])
     length = config.env.episode_steps or task_class(task).subgoal_steps  # random policies rarely end early
     return config.model_copy(update={"episodes": -(-(config.algo_params.learning_starts + subgoals) // length)})

@@ -6,13 +6,15 @@
     a[3] * pi, in the robot frame. Arm: image row (a[4] + 1) / 2 * H, column (a[5] + 1) / 2 * W,
     push vector (a[6], a[7]) * 0.25 m in the base frame (clipped to 0.25 m).
 
-``subgoal-d`` (SGP-D, discrete over dense maps at 1/4 of the image resolution, Q = S / 4):
+``subgoal-d`` (SGP-D, discrete over dense Q x Q maps; by default Q = S / 4, the paper's 32 at
+    128 px; ``qmap_size`` sets Q for any S it divides, e.g. 32 at 64 px, so that each cell covers
+    c = S / Q image pixels a side):
     index in [0, L*Q*Q): base map; (l, i, j) = unravel(index, (L, Q, Q)); the goal is the
         centre of cell (i, j) of the 5 m local map (i along x forward, j along y left, as in
         ``LocalMap``) with final yaw -pi + l * 2pi / L in the robot frame.
     index in [L*Q*Q, (L+K)*Q*Q): arm map; (k, i, j) = unravel(index - L*Q*Q, (K, Q, Q)); the
-        image pixel (row 4i + 2, column 4j + 2) with a horizontal push of ``push_length`` m in
-        direction k, which depends on ``push_frame``:
+        image pixel (row c*i + c//2, column c*j + c//2) with a horizontal push of ``push_length`` m
+        in direction k, which depends on ``push_frame``:
           ``base`` (the paper's): base-frame heading k * 2pi / K;
           ``surface`` (ours): heading -pi/2 + (k + 1/2) pi / K from the inward horizontal normal
           of the surface seen at the pixel, so every bin pushes into it, at 15 deg steps.
@@ -53,7 +55,8 @@ BASE_ANGLE_RANGE = np.deg2rad(110.0)
 PUSH_MAX = 0.25
 YAW_BINS = 12  # L
 PUSH_BINS = 12  # K
-Q_DOWNSAMPLE = 4
+Q_DOWNSAMPLE = 4  # the paper's image pixels per Q-map cell (128 px -> 32 x 32); ``qmap_size`` overrides
+LOCAL_MAP_M = 5.0  # side of the base Q map's local map, centred on the robot
 PUSH_FRAMES = ("base", "surface")
 STEEP_NORMAL = np.cos(np.deg2rad(45.0))  # least horizontal part of a unit normal a push can go into
 
@@ -201,18 +204,29 @@ def decode_indices(indices, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     return is_arm, bin_, *np.divmod(cell, q)
 
 
+def qmap_size_for(image_size: int, qmap_size: int | None = None) -> int:
+    """Q, the side of SGP-D's Q maps: ``qmap_size``, or image_size / 4 (the paper's ratio) when None.
+    Q must divide the image size, so that every cell covers the same square of pixels."""
+    if qmap_size is None:
+        if image_size % Q_DOWNSAMPLE:
+            raise ValueError(f"subgoal-d needs an image size divisible by {Q_DOWNSAMPLE}, got {image_size}")
+        return image_size // Q_DOWNSAMPLE
+    if int(qmap_size) < 1 or image_size % int(qmap_size):
+        raise ValueError(f"qmap_size {qmap_size} must be a positive divisor of the image size {image_size}")
+    return int(qmap_size)
+
+
 class SubgoalDControl(SubgoalControl):
     name = "subgoal-d"
 
     def __init__(self, env: RelmogenEnv, push_length: float = PUSH_MAX, push_frame: str = "base",
-                 **options: Any):
+                 qmap_size: int | None = None, **options: Any):
         if push_frame not in PUSH_FRAMES:
             raise ValueError(f"unknown push_frame {push_frame!r}; valid: {', '.join(PUSH_FRAMES)}")
         super().__init__(env, **options)
         size = env.camera.intrinsics.width
-        if size % Q_DOWNSAMPLE:
-            raise ValueError(f"subgoal-d needs an image size divisible by {Q_DOWNSAMPLE}, got {size}")
-        self.map_pixels, self.q = size, size // Q_DOWNSAMPLE
+        self.map_pixels, self.q = size, qmap_size_for(size, qmap_size)
+        self.cell_pixels = size // self.q  # image pixels per Q-map cell, a side
         self.push_length, self.push_frame = float(push_length), push_frame
         self.num_base = YAW_BINS * self.q * self.q
         self.action_space = spaces.Discrete(self.num_base + PUSH_BINS * self.q * self.q)
@@ -239,13 +253,28 @@ class SubgoalDControl(SubgoalControl):
             skipped = SubgoalResult(part, "none", False, f"{part} subgoals are not used by {self.env.task.name}")
             return self.outcome(skipped, RewardAccumulator(self.env).close(), action_index=index)
         if part == "base":
-            cell = 5.0 / self.q
-            goal = np.array([(i + 0.5) * cell - 2.5, (j + 0.5) * cell - 2.5, -np.pi + bin_ * 2 * np.pi / YAW_BINS])
-            return self.outcome(*self.execute_base(goal), action_index=index)
+            return self.outcome(*self.execute_base(self.base_goal(bin_, i, j)), action_index=index)
+        return self.outcome(*self.execute_arm(*self.cell_pixel(i, j), self.push_vector(bin_, i, j)),
+                            action_index=index)
+
+    def base_goal(self, bin_: int, i: int, j: int) -> np.ndarray:
+        """Robot-frame (x, y, yaw change) of base action (bin_, i, j): its local-map cell's centre."""
+        cell, half = LOCAL_MAP_M / self.q, LOCAL_MAP_M / 2
+        return np.array([(i + 0.5) * cell - half, (j + 0.5) * cell - half, -np.pi + bin_ * 2 * np.pi / YAW_BINS])
+
+    def cell_pixel(self, i: int, j: int) -> tuple[int, int]:
+        """(row, col) of the image pixel arm cell (i, j) reaches for: the cell's centre pixel."""
+        c = self.cell_pixels
+        return c * i + c // 2, c * j + c // 2
+
+    def pixel_cell(self, row: int, col: int) -> tuple[int, int]:
+        """The arm cell (i, j) holding image pixel (row, col)."""
+        return row // self.cell_pixels, col // self.cell_pixels
+
+    def push_vector(self, bin_: int, i: int, j: int) -> np.ndarray:
+        """Base-frame push of arm action (bin_, i, j): ``push_length`` m along ``push_heading``."""
         angle = self.push_heading(bin_, i, j)
-        push = self.push_length * np.array([np.cos(angle), np.sin(angle)])
-        row, col = Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2
-        return self.outcome(*self.execute_arm(row, col, push), action_index=index)
+        return self.push_length * np.array([np.cos(angle), np.sin(angle)])
 
     def nearest_index(self, subgoal_r_action) -> int:
         """The discrete action nearest to a ``subgoal-r`` action in the current observation (the
@@ -254,11 +283,11 @@ class SubgoalDControl(SubgoalControl):
         part, target = self.decode_continuous(subgoal_r_action)
         if part == "base":
             (goal,) = target
-            i, j = np.clip(np.floor((goal[:2] + 2.5) * self.q / 5.0).astype(int), 0, self.q - 1)
+            i, j = np.clip(np.floor((goal[:2] + LOCAL_MAP_M / 2) * self.q / LOCAL_MAP_M).astype(int), 0, self.q - 1)
             yaw_bin = int(np.round((wrap_angle(goal[2]) + np.pi) * YAW_BINS / (2 * np.pi))) % YAW_BINS
             return self.encode("base", yaw_bin, int(i), int(j))
         row, col, push = target
-        i, j = row // Q_DOWNSAMPLE, col // Q_DOWNSAMPLE
+        i, j = self.pixel_cell(row, col)
         return self.encode("arm", self.nearest_push_bin(float(np.arctan2(push[1], push[0])), i, j), i, j)
 
     def nearest_push_bin(self, heading: float, i: int, j: int) -> int:
@@ -292,7 +321,7 @@ class SubgoalDControl(SubgoalControl):
         ranges = self.env.scan()
         self._base_mask = self._free_cells(self.mg.local_map(ranges))
         self._arm_mask = self._arm_cells()
-        obs_map = self.mg.local_map(ranges, resolution=5.0 / self.map_pixels)
+        obs_map = self.mg.local_map(ranges, resolution=LOCAL_MAP_M / self.map_pixels)
         channels = [obs_map.grid]
         if self.map_channels == 2:
             channels.append(_draw_marks(obs_map, *self.env.task.map_marks()))
@@ -309,8 +338,7 @@ class SubgoalDControl(SubgoalControl):
         """Q x Q arm cells whose pixel sees a point within the arm's reach (and, in the surface
         frame, a steep surface; its inward heading is kept for ``push_heading``)."""
         env, frame = self.env, self.env.last_frame
-        centres = Q_DOWNSAMPLE * np.arange(self.q) + Q_DOWNSAMPLE // 2
-        rows, cols = np.meshgrid(centres, centres, indexing="ij")
+        rows, cols = self.cell_pixel(*np.meshgrid(np.arange(self.q), np.arange(self.q), indexing="ij"))
         points, has_depth = env.camera.pixels_to_world(frame, cols, rows)
         reachable = has_depth & within_arm_reach(env, points)
         if self.push_frame == "base":
@@ -324,8 +352,8 @@ class SubgoalDControl(SubgoalControl):
 
     def _free_cells(self, local_map) -> np.ndarray:
         """Q x Q cells whose centre leaves the footprint clear of obstacles on ``local_map``."""
-        cell = 5.0 / self.q
-        centres = (np.arange(self.q) + 0.5) * cell - 2.5
+        cell = LOCAL_MAP_M / self.q
+        centres = (np.arange(self.q) + 0.5) * cell - LOCAL_MAP_M / 2
         points = np.stack(np.meshgrid(centres, centres, indexing="ij"), axis=-1)
         cells = np.clip(local_map.point_to_cell(points), 0, local_map.size - 1)
         clearance = FootprintChecker(local_map, self.env.robot.spec.base_radius).clearance_grid

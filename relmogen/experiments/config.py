@@ -8,15 +8,17 @@ saved next to the run (``config.yaml``) so a run can always be resumed or reprod
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 PRESET_DIR = Path(__file__).resolve().parent.parent / "configs" / "presets"
-ALGOS = ("relmogen-r", "relmogen-d", "sac", "oac")
-CONTROL_OF_ALGO = {"relmogen-r": "subgoal-r", "relmogen-d": "subgoal-d", "sac": "joint", "oac": "joint"}
+ALGOS = ("relmogen-r", "relmogen-d", "sac", "oac", "hrl4in")
+CONTROL_OF_ALGO = {"relmogen-r": "subgoal-r", "relmogen-d": "subgoal-d", "sac": "joint", "oac": "joint",
+                   "hrl4in": "joint"}
 
 
 class _Strict(BaseModel):
@@ -32,10 +34,52 @@ class EnvConfig(_Strict):
     arm_collision_train: bool = False
     episode_steps: int | None = Field(None, ge=1)  # None: the paper's (25 subgoals / 750 joint steps)
     push_frame: Literal["base", "surface"] = "base"  # relmogen-d's push bins (subgoal_controls.py; ours: surface)
+    # relmogen-d's Q-map side; None: image_size / 4 (the paper's 32 at 128 px). 2, 4 or 8 times it = image_size
+    qmap_size: int | None = Field(None, ge=1)
     # a base subgoal whose goal pose is in collision: "strict" is a no-op (the paper's),
     # "nearest_free" drives to the nearest free pose toward it (ours; base_planner.py)
     base_goal: Literal["strict", "nearest_free"] = "strict"
     noop_cost: float = Field(0.0, ge=0)  # subgoal controls: reward -cost for a subgoal that executed nothing (ours)
+    robot: str = "fetch"  # the embodiment: a folder of relmogen/robots/assets with a spec.yaml (fetch, movo)
+    # The paper's fine-tuning to a new scene (appendix, PushDoorNav Scene-A -> Scene-B): the last
+    # round(second_scene_fraction x n_envs) training environments run in second_scene (a scene
+    # name, e.g. office_B), the others in `scene`; evaluation uses `scene` (or eval --scene).
+    second_scene: str | None = None
+    second_scene_fraction: float = Field(0.5, gt=0, le=1)
+
+    @model_validator(mode="after")
+    def _qmap_divides_the_image(self) -> EnvConfig:
+        if self.qmap_size is not None and self.image_size not in (2 * self.qmap_size, 4 * self.qmap_size,
+                                                                  8 * self.qmap_size):
+            raise ValueError(f"env.qmap_size {self.qmap_size} needs env.image_size 2, 4 or 8 times it, "
+                             f"got {self.image_size}")
+        return self
+
+    @field_validator("robot")
+    @classmethod
+    def _robot_has_assets(cls, robot: str) -> str:
+        from relmogen.robots.spec import available_robots
+
+        robots = available_robots()
+        if robot not in robots:
+            raise ValueError(f"unknown robot {robot!r}; robots (folders of relmogen/robots/assets with a spec.yaml): "
+                             f"{', '.join(robots)}")
+        return robot
+
+    @property
+    def second_scene_envs(self) -> int:
+        """How many training environments (the last ones) run in ``second_scene``."""
+        return 0 if self.second_scene is None else int(math.floor(self.second_scene_fraction * self.n_envs + 0.5))
+
+    @model_validator(mode="after")
+    def _second_scene_gets_environments(self) -> EnvConfig:
+        second = self.second_scene_envs
+        if self.second_scene is not None and (second == 0 or (second == self.n_envs and self.second_scene_fraction < 1)):
+            raise ValueError(f"env.second_scene {self.second_scene}: env.second_scene_fraction "
+                             f"{self.second_scene_fraction} of env.n_envs {self.n_envs} puts {second} environments "
+                             "there, leaving one scene without any; raise env.n_envs (the paper swaps half of its "
+                             "training environments) or set the fraction to 1")
+        return self
 
 
 class AlgoConfig(_Strict):
@@ -71,6 +115,24 @@ class AlgoConfig(_Strict):
     demo_margin_weight: float = Field(0.0, ge=0)  # relmogen-d: DQfD's large-margin term on them (ours; 0 = off)
     n_step_returns: int | None = Field(None, ge=1, le=25)  # relmogen-d: n-step TD targets (DQfD, Rainbow); 1 = off
     oracle_labels: bool = False  # relmogen-d: the margin term on the oracle's labels of policy states (ours)
+    # hrl4in only (Li et al. 2020; relmogen/agents/hrl4in.py). The generic keys above train its low
+    # level; the hrl4in_high_* keys its high level.
+    hrl4in_k: int = Field(30, ge=1)  # most low-level steps per subgoal (HRL4IN's time_scale)
+    hrl4in_embodiments: list[Literal["base", "arm", "both"]] = Field(default_factory=lambda: ["base", "arm", "both"],
+                                                                     min_length=1)
+    hrl4in_base_range: float = Field(1.0, gt=0)  # base subgoal offsets in [-range, range] m, robot frame
+    hrl4in_ee_range: float = Field(0.5, gt=0)  # end-effector subgoal offsets, m
+    hrl4in_tolerance: float = Field(0.1, gt=0)  # achieved: every masked-in component within this (m)
+    hrl4in_progress_scale: float = Field(30.0, ge=0)  # intrinsic reward per metre of progress
+    hrl4in_distance_weight: float = Field(0.0, ge=0)  # intrinsic -weight * remaining distance (m)
+    hrl4in_success_bonus: float = Field(0.0, ge=0)  # intrinsic bonus when a subgoal is achieved
+    hrl4in_mask_penalty: float = Field(0.0, ge=0)  # intrinsic -weight * sum of squared masked actions
+    hrl4in_extrinsic_weight: float = 0.0  # share of the task reward the low level also gets
+    hrl4in_high_learning_rate: float | None = Field(None, gt=0)  # None: learning_rate
+    hrl4in_high_gamma: float = Field(0.99, gt=0, le=1)  # per subgoal
+    hrl4in_high_buffer_size: int = Field(10_000, ge=1)  # high-level transitions (one per subgoal)
+    hrl4in_high_batch_size: int | None = Field(None, ge=1)  # None: batch_size
+    hrl4in_high_learning_starts: int = Field(50, ge=0)  # high-level transitions of random subgoals first
 
 
 class RunSettings(_Strict):
@@ -97,7 +159,7 @@ class RunSettings(_Strict):
 
 class TrainConfig(_Strict):
     task: str
-    algo: Literal["relmogen-r", "relmogen-d", "sac", "oac"]
+    algo: Literal["relmogen-r", "relmogen-d", "sac", "oac", "hrl4in"]
     seed: int = 0
     preset: str = "cpu"
     episodes: int = Field(1000, ge=1)

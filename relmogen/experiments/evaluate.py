@@ -40,7 +40,7 @@ from relmogen.agents.demonstrations import OracleAgreement
 from relmogen.agents.dqn import env_policy
 from relmogen.agents.oracles import ORACLES
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.experiments.config import TrainConfig, read_config
+from relmogen.experiments.config import EnvConfig, TrainConfig, read_config
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
 from relmogen.experiments.train import env_kwargs, latest_checkpoint, model_class, resolve_device
@@ -63,26 +63,39 @@ def seeded_action_sampling(seed: int) -> Iterator[None]:
             np.random.set_state(numpy_state)
 
 
+def policy_act(model, config: TrainConfig, env: RelmogenEnv, stochastic: bool = False, skip_no_ops: bool = False):
+    """``obs -> action`` of ``model`` on ``env`` (SGP-D masked to its free base cells, see
+    ``env_policy``), with a ``reset`` to call at the start of each episode."""
+    if config.algo == "relmogen-d":
+        return env_policy(model, env, deterministic=not stochastic, skip_no_ops=skip_no_ops)
+    if config.algo == "hrl4in":  # both levels; subgoals held across steps (agents/hrl4in.py)
+        return model.evaluation_policy(env, deterministic=not stochastic)
+
+    def act(obs):
+        return model.predict(obs, deterministic=not stochastic)[0]
+
+    act.reset = lambda: None
+    return act
+
+
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                    quiet: bool = False, stochastic: bool = False, skip_no_ops: bool = False,
-                   video: Path | None = None) -> dict:
+                   video: Path | None = None, robot: str | None = None) -> dict:
     """``episodes`` episodes with seeds ``seed, seed + 1, ...``: the settings and the aggregated
-    metrics; ``video`` (a .gif or .mp4 path) records the first one with overlays."""
+    metrics; ``video`` (a .gif or .mp4 path) records the first one with overlays. ``robot``
+    evaluates on another embodiment than the run's (its spaces must be the policy's)."""
+    config = with_robot(config, robot)
     if skip_no_ops and config.algo != "relmogen-d":
         raise ValueError(f"--skip-no-ops excludes a discrete subgoal that changed nothing; it needs relmogen-d, "
                          f"not {config.algo}")
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
-    agreement = None
-    if config.algo == "relmogen-d":  # over the free base cells only
-        act = env_policy(model, env, deterministic=not stochastic, skip_no_ops=skip_no_ops)
-        if config.task in ORACLES:
-            act = agreement = OracleAgreement(act, env)
-        on_reset = act.reset
-    else:
-        act, on_reset = (lambda obs: model.predict(obs, deterministic=not stochastic)[0]), None
+    act, agreement = policy_act(model, config, env, stochastic, skip_no_ops), None
+    if config.algo == "relmogen-d" and config.task in ORACLES:
+        act = agreement = OracleAgreement(act, env)
+    on_reset = act.reset
     recorder = AnnotatedRecorder() if video is not None else None
     try:
         with seeded_action_sampling(seed):
@@ -92,7 +105,7 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
         env.close()
     policy = ("stochastic" if stochastic else "deterministic") + ("-skip-no-ops" if skip_no_ops else "")
     settings = {"task": config.task, "algo": config.algo, "training_seed": config.seed, "eval_seed": seed,
-                "scene": env.scene.name, "policy": policy}
+                "scene": env.scene.name, "robot": config.env.robot, "policy": policy}
     if stochastic and config.algo == "relmogen-d":
         settings["epsilon"] = float(model.exploration_rate)
     if config.control != "joint":
@@ -105,6 +118,16 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if recorder is not None:
         result["video"] = str(write_animation(recorder.frames, video, fps=VIDEO_FPS))
     return result
+
+
+def with_robot(config: TrainConfig, robot: str | None) -> TrainConfig:
+    """``config`` with ``env.robot`` replaced (validated: an unknown robot is a clear error)."""
+    from relmogen.robots.spec import load_spec
+
+    if robot is None or robot == config.env.robot:
+        return config
+    load_spec(robot)  # an unknown name: ValueError listing the robots
+    return config.model_copy(update={"env": EnvConfig.model_validate({**config.env.model_dump(), "robot": robot})})
 
 
 CHECKPOINT_CHOICES = ("latest", "best")
@@ -166,7 +189,8 @@ def load_policy(path: Path, device: str = "auto", checkpoint: str = "latest"):
 def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | None = None,
                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                   device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False,
-                  skip_no_ops: bool = False, checkpoint: str = "latest", video: Path | None = None) -> dict:
+                  skip_no_ops: bool = False, checkpoint: str = "latest", video: Path | None = None,
+                  robot: str | None = None) -> dict:
     """``evaluate_model`` on a run's checkpoint (``resolve_checkpoint``), saved in ``RUN/eval/``
     under ``evaluation_file_name``."""
     if video is not None:
@@ -174,7 +198,7 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
     folder, run_dir = resolve_checkpoint(path, checkpoint)
     model, config = load_checkpoint(folder, run_dir, device)
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
-                            stochastic, skip_no_ops, video)
+                            stochastic, skip_no_ops, video, robot)
     state = json.loads((folder / "state.json").read_text()) if (folder / "state.json").is_file() else {}
     result = {**result, "checkpoint": folder.name, "checkpoint_episode": state.get("episodes")}
     if save:
@@ -184,10 +208,12 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
 
 
 def evaluation_file_name(result: dict, arm_collision: bool) -> str:
-    """``eval_<scene>_<base planner>_<arm planner>_collision-<on|off>_<N>ep[_stochastic][_skip_no_ops]
-    _<checkpoint folder>_seed<eval seed>.json``; ``na`` for the planners of joint control."""
+    """``eval_<scene>[_<robot>]_<base planner>_<arm planner>_collision-<on|off>_<N>ep[_stochastic]
+    [_skip_no_ops]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the planners of joint
+    control; the robot only when it is not Fetch."""
     policy = result["policy"]
-    return (f"eval_{result.get('scene')}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_"
+    robot = "" if result.get("robot", "fetch") == "fetch" else f"_{result['robot']}"
+    return (f"eval_{result.get('scene')}{robot}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_"
             f"collision-{'on' if arm_collision else 'off'}_{result['episodes']}ep"
             f"{'_stochastic' if policy.startswith('stochastic') else ''}"
             f"{'_skip_no_ops' if policy.endswith('skip-no-ops') else ''}"

@@ -17,7 +17,7 @@ ORACLE_CONTROLS = ("subgoal-r", "subgoal-d")
 def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = "subgoal-r", seed: int = 0,
                scene: str | None = None, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
                arm_collision: bool = True, quiet: bool = False, video: Path | None = None, image_size: int = 128,
-               push_frame: str = "base") -> dict:
+               push_frame: str = "base", qmap_size: int | None = None, robot: str = "fetch") -> dict:
     """Oracles decide in ``subgoal-r`` actions. Through ``control="subgoal-d"`` each one is
     executed as the nearest discrete action (``SubgoalDControl.nearest_index``): the ceiling of
     SGP-D's action space at that image size and push frame. ``video`` (.gif or .mp4) records one
@@ -30,15 +30,17 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
         raise ValueError("random subgoal-d actions are measured by "
                          "results/sgpd-first/measure_sgpd_exploration.py "
                          "(uniform over the allowed actions, as relmogen-d explores)")
-    options = {"push_frame": push_frame} if control == "subgoal-d" else {}
+    options = {"push_frame": push_frame, "qmap_size": qmap_size} if control == "subgoal-d" else {}
     env = RelmogenEnv(task=task, control=control, scene=scene, base_planner=base_planner, arm_planner=arm_planner,
-                      arm_collision=arm_collision, image_size=image_size, **options)
+                      arm_collision=arm_collision, image_size=image_size, robot=robot, **options)
     agent = make_policy(policy, env)
     act = agent.act if control == "subgoal-r" else (lambda obs: env.control.nearest_index(agent.act(obs)))
     records = run_episodes(env, act, episodes, seed, quiet, on_reset=agent.reset,
                            description=f"{task} {policy}")
+    if control == "subgoal-d":
+        options["qmap_size"] = env.control.q
     result = {"task": task, "policy": policy, "control": control, "image_size": image_size, **options,
-              "scene": env.scene.name, "base_planner": base_planner, "arm_planner": arm_planner,
+              "robot": robot, "scene": env.scene.name, "base_planner": base_planner, "arm_planner": arm_planner,
               "arm_collision": arm_collision, **aggregate(records)}
     if video is not None:
         recorder = AnnotatedRecorder()

@@ -58,7 +58,8 @@ def final_evaluation(run_dir: Path) -> dict | None:
     evals = [e for e in evals if policy_of(e) == "deterministic" and checkpoint_of(e) == "latest"]
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
-                     and (config.env.scene is None or e.get("scene") == config.env.scene)]
+                     and (config.env.scene is None or e.get("scene") == config.env.scene)
+                     and e.get("robot", config.env.robot) == config.env.robot]
     if same_planners:
         best = max(same_planners, key=lambda e: (e.get("episodes", 0), e["_mtime"]))
         return {k: v for k, v in best.items() if k != "_mtime"}

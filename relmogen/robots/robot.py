@@ -14,6 +14,7 @@ import pybullet as p
 from relmogen.robots.spec import EmbodimentSpec
 
 BASE_LINK = -1
+FAR_ABOVE = 100.0  # m: where a reset puts the robot for one collision pass (clear of every scene)
 
 
 class Robot:
@@ -93,7 +94,14 @@ class Robot:
     # ------------------------------------------------------------------ reset / base
 
     def reset(self, base_pose: Sequence[float] = (0.0, 0.0, 0.0), head_tilt: float | None = None) -> None:
-        """Teleport to ``(x, y, yaw)`` on the floor in the tucked pose, at rest, holding it."""
+        """Teleport to ``(x, y, yaw)`` on the floor in the tucked pose, at rest, holding it.
+
+        The robot first leaves the scene for one collision pass: PyBullet keeps a touching pair's
+        contact cache (warm-started impulses) across teleports, so without it the first 0.1 s of
+        driving after a reset depended on where the previous episode ended (a seeded episode
+        was not reproducible; Gymnasium's determinism check failed for some actions)."""
+        self._place_base(*base_pose, z=self._base_height + FAR_ABOVE)
+        p.performCollisionDetection(physicsClientId=self.client)
         self.set_base_pose(*base_pose)
         tilt = self.spec.head_tilt_navigation if head_tilt is None else head_tilt
         held = np.concatenate([self.arm_joint_indices, self.head_joint_indices, self.gripper_joint_indices])
@@ -113,7 +121,9 @@ class Robot:
 
     def set_base_pose(self, x: float, y: float, yaw: float, z: float | None = None) -> None:
         """Kinematic teleport of the base link frame; joint positions are kept."""
-        z = self._base_height if z is None else z
+        self._place_base(x, y, yaw, self._base_height if z is None else z)
+
+    def _place_base(self, x: float, y: float, yaw: float, z: float) -> None:
         link_orn = p.getQuaternionFromEuler([0.0, 0.0, yaw])
         com_pos, com_orn = p.multiplyTransforms([x, y, z], link_orn, *self._base_com_offset)
         p.resetBasePositionAndOrientation(self.robot_id, com_pos, com_orn, physicsClientId=self.client)

@@ -19,7 +19,8 @@ from scipy import ndimage
 
 from relmogen.scenes.geometry import Box, Rect
 
-ROBOT_RADIUS = 0.279  # Fetch base footprint used by the original planner
+ROBOT_RADIUS = 0.279  # Fetch base footprint used by the original planner (the default; tasks pass the robot's)
+FREE_POINT_MARGIN = 0.05  # m: sampled start/goal points are this much farther from obstacles than the robot's radius
 RESOLUTION = 0.05
 FIELD_RESOLUTION = 0.1
 OBSTACLE_HEIGHT_RANGE = (0.03, 1.6)  # boxes spanning any of this z band block the robot
@@ -359,7 +360,7 @@ def _cell_centres(trav_map: TraversabilityMap, flat: np.ndarray) -> np.ndarray:
 
 
 def sample_free_point(trav_map: TraversabilityMap, rng: np.random.Generator, region: Rect | None = None,
-                      clearance: float = ROBOT_RADIUS + 0.05) -> np.ndarray:
+                      clearance: float = ROBOT_RADIUS + FREE_POINT_MARGIN) -> np.ndarray:
     """A cell centre with at least `clearance` to obstacles, on the main free component."""
     cells = _candidate_cells(trav_map, region, clearance)
     if len(cells) == 0:
@@ -370,7 +371,7 @@ def sample_free_point(trav_map: TraversabilityMap, rng: np.random.Generator, reg
 def sample_start_goal(trav_map: TraversabilityMap, rng: np.random.Generator, min_geodesic: float = 1.0,
                       max_geodesic: float = 10.0, start_region: Rect | None = None,
                       goal_region: Rect | None = None, robot_radius: float = ROBOT_RADIUS,
-                      clearance: float = ROBOT_RADIUS + 0.05, max_tries: int = 50) -> StartGoal:
+                      clearance: float = ROBOT_RADIUS + FREE_POINT_MARGIN, max_tries: int = 50) -> StartGoal:
     """Sample a goal, solve its field once, then a start whose geodesic distance is in range.
 
     Starts are drawn in batches of 256 candidate cells (cheaper than scoring every cell);

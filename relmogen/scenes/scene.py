@@ -15,7 +15,7 @@ import pybullet as p
 
 from relmogen.scenes.geometry import Box, Doorway, Layout, Rect, Table, WallSegment
 from relmogen.scenes.house import house_a, house_b
-from relmogen.scenes.navigation import (ROBOT_RADIUS, GeodesicField, StartGoal, TraversabilityMap,
+from relmogen.scenes.navigation import (FREE_POINT_MARGIN, ROBOT_RADIUS, GeodesicField, StartGoal, TraversabilityMap,
                                         sample_free_point, sample_start_goal)
 from relmogen.scenes.office import office_a, office_b
 
@@ -128,7 +128,7 @@ class Scene:
         return GeodesicField(self.trav_map, goal_xy, robot_radius)
 
     def sample_free_point(self, rng: np.random.Generator, region: str | None = None,
-                          clearance: float = ROBOT_RADIUS + 0.05) -> np.ndarray:
+                          clearance: float = ROBOT_RADIUS + FREE_POINT_MARGIN) -> np.ndarray:
         return sample_free_point(self.trav_map, rng, self._region_rect(region), clearance)
 
     def sample_start_goal(self, rng: np.random.Generator, min_geodesic: float = 1.0, max_geodesic: float = 10.0,
@@ -136,7 +136,7 @@ class Scene:
                           robot_radius: float = ROBOT_RADIUS) -> StartGoal:
         """Start xy, yaw and goal xy with geodesic distance in range (plus the goal's field)."""
         return sample_start_goal(self.trav_map, rng, min_geodesic, max_geodesic, self._region_rect(start_region),
-                                 self._region_rect(goal_region), robot_radius)
+                                 self._region_rect(goal_region), robot_radius, robot_radius + FREE_POINT_MARGIN)
 
     def remove(self) -> None:
         """Delete every body of the scene from its client."""

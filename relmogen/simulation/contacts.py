@@ -40,3 +40,16 @@ def robot_collisions(
             continue
         result.append(Collision(link_names.get(robot_link, str(robot_link)), other, other_link))
     return result
+
+
+def robot_touches(client: int, robot_id: int, ignored_bodies: frozenset[int] = frozenset()) -> dict[int, tuple]:
+    """Bodies the robot touches (any link, the gripper included; points at distance <= 0), except
+    itself and ``ignored_bodies`` (e.g. the floor its wheels stand on): body id -> mean world
+    position (x, y, z) of the touching points on that body."""
+    points: dict[int, list] = {}
+    for contact in p.getContactPoints(bodyA=robot_id, physicsClientId=client):
+        other, distance = contact[2], contact[8]
+        if distance > 0.0 or other == robot_id or other in ignored_bodies:
+            continue
+        points.setdefault(other, []).append(contact[6])
+    return {body: tuple(sum(axis) / len(found) for axis in zip(*found)) for body, found in points.items()}

@@ -101,7 +101,7 @@ class ArrangeChairMM(Task):
     def _sample_robot_start(self, rng: np.random.Generator, chair_xy: np.ndarray) -> tuple[float, float, float]:
         scene, centre = self.ctx.scene, np.asarray(self.ctx.scene.table.center)
         for _ in range(200):
-            xy = scene.sample_free_point(rng, "dining")
+            xy = self.sample_free_point(rng, "dining")
             near_chairs = np.min(np.linalg.norm(chair_xy - xy, axis=1)) < self.start_chair_clearance
             if near_chairs or not self.start_distance[0] <= np.linalg.norm(xy - centre) <= self.start_distance[1]:
                 continue

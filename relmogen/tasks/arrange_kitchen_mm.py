@@ -149,7 +149,7 @@ class ArrangeKitchenMM(Task):
     def _place_robot(self, rng: np.random.Generator) -> None:
         robot, client = self.ctx.robot, self.ctx.world.client
         for _ in range(200):
-            xy = self.ctx.scene.sample_free_point(rng, "kitchen")
+            xy = self.sample_free_point(rng, "kitchen")
             robot.reset((xy[0], xy[1], rng.uniform(-math.pi, math.pi)), head_tilt=self.head_tilt_angle())
             if not any(p.getClosestPoints(robot.robot_id, c.body, self.robot_clearance, physicsClientId=client)
                        for c in self.cabinets):

@@ -89,6 +89,14 @@ class Task:
         return {"success": float(self.is_success())}
 
     # ------------------------------------------------------------------ shared pieces
+    def sample_free_point(self, rng: np.random.Generator, region=None) -> np.ndarray:
+        """A free floor point of the scene (in ``region``) with room for this robot's base: its
+        radius plus ``FREE_POINT_MARGIN`` from every obstacle."""
+        from relmogen.scenes.navigation import FREE_POINT_MARGIN
+
+        return self.ctx.scene.sample_free_point(rng, region, clearance=self.ctx.robot.spec.base_radius
+                                                + FREE_POINT_MARGIN)
+
     def head_tilt_angle(self) -> float:
         return float(getattr(self.ctx.robot.spec, f"head_tilt_{self.head_tilt}"))
 

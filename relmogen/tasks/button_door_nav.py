@@ -25,7 +25,8 @@ Reward:
     geodesic: (previous - current) geodesic distance to the goal on the static floor plan
         (doors ignored), weight 1.
     button: +5 once, when the button is first pressed (deeper than 3 cm).
-    success: +10 once, when the success condition first holds.
+    success: +10 once, when a decision (a subgoal, or a joint step) ends with the success
+        condition holding (the episode ends then); passing through the goal mid-subgoal earns nothing.
 
 Metrics:
     success (SR), spl, path_length, shortest_path_length, goal_distance, door_angle_deg
@@ -70,7 +71,7 @@ class ButtonDoorNav(PushDoorNav):
         self.reward_terms = [
             PotentialReward("geodesic", self.geodesic_distance, self.geodesic_weight),
             EventReward("button", self.button_pressed, self.button_reward),
-            EventReward("success", self.is_success, self.success_reward),
+            EventReward("success", self.is_success, self.success_reward, per_decision=True),
         ]
 
     def load(self) -> None:

@@ -30,7 +30,8 @@ Reward:
     displacement: increase of the summed xy displacement of the boxes from their start
         positions (metres, each beyond a 1 cm dead band that hides resting contact creep),
         weight 1 (a potential, so pushing back and forth earns nothing).
-    success: +10 once, when the success condition first holds.
+    success: +10 once, when a decision (a subgoal, or a joint step) ends with the success
+        condition holding (the episode ends then); passing through the goal mid-subgoal earns nothing.
 
 Metrics:
     success (SR), spl, path_length, shortest_path_length, goal_distance,
@@ -139,9 +140,9 @@ class InteractiveObstaclesNav(NavigationTask):
         self.layouts = self._valid_layouts()
 
     def _valid_layouts(self) -> dict[int, list[Barrier]]:
-        """Layouts per red side; checked once per scene and process (about a second)."""
+        """Layouts per red side; checked once per scene, robot size and process (about a second)."""
         scene = self.ctx.scene
-        key = (scene.name, scene.seed)
+        key = (scene.name, scene.seed, self.ctx.robot.spec.base_radius)  # validity depends on the base's size
         if key not in self._layout_cache:
             candidates = [Barrier(g, s, side) for g, s, side in itertools.product(WALL_GAPS, PAIR_SHIFTS, (-1, 1))]
             self._layout_cache[key] = [b for b in candidates if self.layout_is_valid(b)]
@@ -200,12 +201,12 @@ class InteractiveObstaclesNav(NavigationTask):
         """Goal first (rejected near the boxes, cheap), one field solve, then the start."""
         scene, radius = self.ctx.scene, self.ctx.robot.spec.base_radius
         for _ in range(20):
-            goal = scene.sample_free_point(rng, scene.goal_region)
+            goal = self.sample_free_point(rng, scene.goal_region)
             if not self.goal_clear_of_obstacles(goal):
                 continue
             field = scene.geodesic_field(goal, radius)
             for _ in range(50):
-                start = scene.sample_free_point(rng, scene.start_region)
+                start = self.sample_free_point(rng, scene.start_region)
                 distance = field.distance(start)
                 if self.min_geodesic <= distance <= self.max_geodesic:
                     return StartGoal(start, float(rng.uniform(-np.pi, np.pi)), goal, distance, field)

@@ -41,7 +41,7 @@ class NavigationTask(Task):
         self._last_xy = np.zeros(2)
         self.reward_terms = [
             PotentialReward("geodesic", self.geodesic_distance, self.geodesic_weight),
-            EventReward("success", self.is_success, self.success_reward),
+            EventReward("success", self.is_success, self.success_reward, per_decision=True),
         ]
 
     def load(self) -> None:

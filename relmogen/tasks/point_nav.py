@@ -17,7 +17,8 @@ Success Conditions:
 Reward:
     geodesic: (previous - current) geodesic distance to the goal, weight 1 (metres of
         progress on the static floor plan; negative when moving away).
-    success: +10 once, when the success condition first holds.
+    success: +10 once, when a decision (a subgoal, or a joint step) ends with the success
+        condition holding (the episode ends then); passing through the goal mid-subgoal earns nothing.
 
 Metrics:
     success (SR), spl (success weighted by shortest path length / driven path length),

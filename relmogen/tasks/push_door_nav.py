@@ -23,7 +23,8 @@ Reward:
     geodesic: (previous - current) geodesic distance to the goal on the static floor plan
         (doors ignored), weight 1.
     door: (current - previous) door angle in radians, weight 1 (negative if it closes).
-    success: +10 once, when the success condition first holds.
+    success: +10 once, when a decision (a subgoal, or a joint step) ends with the success
+        condition holding (the episode ends then); passing through the goal mid-subgoal earns nothing.
 
 Metrics:
     success (SR), spl, path_length, shortest_path_length, goal_distance, door_angle_deg
@@ -60,7 +61,7 @@ class PushDoorNav(NavigationTask):
         self.reward_terms = [
             PotentialReward("geodesic", self.geodesic_distance, self.geodesic_weight),
             PotentialReward("door", lambda: -self.door.angle, 1.0),
-            EventReward("success", self.is_success, self.success_reward),
+            EventReward("success", self.is_success, self.success_reward, per_decision=True),
         ]
 
     @property
@@ -90,7 +91,7 @@ class PushDoorNav(NavigationTask):
     def sample_goal(self, rng: np.random.Generator):
         scene, centre = self.ctx.scene, np.asarray(self.doorway.center)
         for _ in range(SAMPLING_TRIES):
-            goal = scene.sample_free_point(rng, scene.goal_region)
+            goal = self.sample_free_point(rng, scene.goal_region)
             if np.linalg.norm(goal - centre) >= self.goal_door_clearance:
                 return goal, scene.geodesic_field(goal, self.ctx.robot.spec.base_radius)
         raise RuntimeError(f"no goal in {scene.goal_region} {self.goal_door_clearance} m from its doorway")
@@ -102,7 +103,7 @@ class PushDoorNav(NavigationTask):
     def sample_start(self, rng: np.random.Generator) -> np.ndarray:
         scene = self.ctx.scene
         for _ in range(SAMPLING_TRIES):
-            xy = scene.sample_free_point(rng, scene.start_region)
+            xy = self.sample_free_point(rng, scene.start_region)
             if self.min_geodesic <= self.field.distance(xy) <= self.max_geodesic and self.start_allowed(xy):
                 return xy
         raise RuntimeError(f"no start in {scene.start_region} within [{self.min_geodesic}, {self.max_geodesic}] m")

@@ -19,7 +19,8 @@ Success Conditions:
 
 Reward:
     reach: -1 x the gripper-to-goal distance in metres, every control step.
-    success: +10 once, when the success condition first holds.
+    success: +10 once, when a decision (a subgoal, or a joint step) ends with the success
+        condition holding (the episode ends then); passing through the goal mid-subgoal earns nothing.
 
 Metrics:
     success (SR), final goal_distance.
@@ -51,7 +52,7 @@ class TabletopReachM(Task):
         self._reached = False
         self.reward_terms = [
             StateReward("reach", self.goal_distance, -1.0),
-            EventReward("success", self.is_success, 10.0),
+            EventReward("success", self.is_success, 10.0, per_decision=True),
         ]
 
     def load(self) -> None:

@@ -61,13 +61,19 @@ class StateReward:
 
 @dataclass
 class EventReward:
-    per_decision = False
+    """``weight`` once, on the first step at which ``happened()`` is true (success, button).
 
-    """``weight`` once, on the first step at which ``happened()`` is true (success, button)."""
+    ``per_decision`` events are checked only when a decision ends (a subgoal, or a joint-velocity
+    step): a success event, because success is judged where a subgoal ends. Checked every 0.1 s
+    while a base subgoal drove, it paid +10 for passing through the goal region without stopping
+    there (PointNav runs learned to: 90% of episodes were paid, 63% succeeded); the original
+    teleported the base to the subgoal's end, so only that pose counted. A latched state (a pressed
+    button) is checked every 0.1 s."""
 
     name: str
     happened: Callable[[], bool]
     weight: float = 10.0
+    per_decision: bool = False
     _given: bool = field(default=False, init=False, repr=False)
 
     def reset(self) -> None:

@@ -37,7 +37,7 @@ import torch as th  # noqa: E402
 
 from relmogen.agents.dqn import info_masks, without_arm_mask  # noqa: E402
 from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
-from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS  # noqa: E402
+from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS  # noqa: E402
 from relmogen.experiments.oracle import oracle_arm_pushes  # noqa: E402
 
 OVERLAY_ALPHA = 0.45
@@ -59,6 +59,11 @@ class QMapState:
     step: int
     choice_heading: float | None = None  # robot-frame heading of the chosen push
     marked_cell: tuple[int, int] | None = None  # (i, j) the oracle reaches for, outlined in cyan
+
+    @property
+    def cell_pixels(self) -> int:
+        """Image pixels per Q-map cell, a side."""
+        return self.rgb.shape[0] // self.q_maps.shape[-1]
 
     def arm_values(self) -> np.ndarray:
         """(Q, Q) arm Q value (max over push directions) of allowed cells, NaN elsewhere."""
@@ -127,14 +132,15 @@ def _arm_panel(axis, state: QMapState) -> None:
         axis.set_title("arm subgoals not used by this task", fontsize=9)
     part, bin_, i, j = state.choice
     if part == "arm":
-        row, col = Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2
+        c = state.cell_pixels
+        row, col = c * i + c // 2, c * j + c // 2
         axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
         if state.choice_heading is not None:
-            _arrow(axis, row, col, state.choice_heading, ARROW_CELLS * Q_DOWNSAMPLE)
+            _arrow(axis, row, col, state.choice_heading, ARROW_CELLS * c)
     if state.marked_cell is not None:
         i, j = state.marked_cell
-        axis.add_patch(plt.Rectangle((Q_DOWNSAMPLE * j - 0.5, Q_DOWNSAMPLE * i - 0.5), Q_DOWNSAMPLE, Q_DOWNSAMPLE,
-                                     fill=False, edgecolor="cyan", lw=2.0))
+        c = state.cell_pixels
+        axis.add_patch(plt.Rectangle((c * j - 0.5, c * i - 0.5), c, c, fill=False, edgecolor="cyan", lw=2.0))
     axis.set_axis_off()
 
 
@@ -221,7 +227,7 @@ def _oracle_figures(model, env: RelmogenEnv, out_dir: Path, states: int, seed: i
     for episode, step, obs, action in oracle_arm_pushes(env, ORACLE_EPISODES, seed):
         row, col = unwrapped.control.arm_pixel(action)
         state = q_map_state(model, env, obs, step)
-        state.marked_cell = (row // Q_DOWNSAMPLE, col // Q_DOWNSAMPLE)
+        state.marked_cell = unwrapped.control.pixel_cell(row, col)
         records.append(_oracle_record(state, episode))
         paths.append(draw_q_map_state(state, _figure_path(out_dir, env, episode, step), title or unwrapped.task.name))
         if len(paths) >= states:

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from relmogen.envs.subgoal_controls import Q_DOWNSAMPLE, YAW_BINS
 from relmogen.experiments.rollout import FrameRecorder
 from relmogen.simulation.frames import to_world
 from relmogen.visualisation.views import ViewCamera, overhead_camera, render
@@ -73,13 +72,8 @@ def _discrete_target(control, index: int) -> tuple[str, tuple]:
     goal (the centre of its local-map cell, its yaw bin), or the pixel and base-frame push."""
     part, bin_, i, j = control.decode(index)
     if part == "base":
-        cell = LOCAL_MAP_M / control.q
-        half = LOCAL_MAP_M / 2
-        return part, (np.array([(i + 0.5) * cell - half, (j + 0.5) * cell - half,
-                                -np.pi + bin_ * 2 * np.pi / YAW_BINS]),)
-    heading = control.push_heading(bin_, i, j)
-    push = control.push_length * np.array([np.cos(heading), np.sin(heading)])
-    return part, (Q_DOWNSAMPLE * i + Q_DOWNSAMPLE // 2, Q_DOWNSAMPLE * j + Q_DOWNSAMPLE // 2, push)
+        return part, (control.base_goal(bin_, i, j),)
+    return part, (*control.cell_pixel(i, j), control.push_vector(bin_, i, j))
 
 
 def _world_pose(env, goal_robot_frame: np.ndarray) -> np.ndarray:

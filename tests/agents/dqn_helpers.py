@@ -37,9 +37,18 @@ class MaskAudit(gym.Wrapper):
         return obs, reward, terminated, truncated, info
 
 
-def make_env(audit=None):
-    env = RelmogenEnv(task="PointNav", control="subgoal-d", image_size=SIZE, episode_steps=5)
+def make_env(audit=None, qmap_size=None):
+    env = RelmogenEnv(task="PointNav", control="subgoal-d", image_size=SIZE, episode_steps=5, qmap_size=qmap_size)
     return env if audit is None else MaskAudit(env, audit)
+
+
+def transposed_observation_space(size: int) -> spaces.Dict:
+    """An SGP-D observation space at ``size`` px as SB3's ``VecTransposeImage`` leaves it."""
+    return spaces.Dict({"rgb": spaces.Box(0, 255, (3, size, size), np.uint8),
+                        "depth": spaces.Box(0.0, 3.0, (size, size, 1), np.float32),
+                        "local_map": spaces.Box(0, 255, (2, size, size), np.uint8),
+                        "scan": spaces.Box(0.0, 1.0, (220,), np.float32),
+                        "task_obs": spaces.Box(-np.inf, np.inf, (55,), np.float32)})
 
 
 def random_batch(space: spaces.Dict, n: int, seed: int = 0) -> dict[str, th.Tensor]:

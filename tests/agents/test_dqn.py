@@ -8,7 +8,7 @@ The add-ons have their own files: ``test_dqn_conservative.py``, ``test_dqn_demon
 import numpy as np
 import pytest
 import torch as th
-from dqn_helpers import Q, SIZE, SMALL_NET, few_free_cells, make_env, random_batch
+from dqn_helpers import Q, SIZE, SMALL_NET, few_free_cells, make_env, random_batch, transposed_observation_space
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -192,12 +192,7 @@ def test_a_part_the_task_does_not_use_is_never_chosen(model):
 
 # ------------------------------------------------------------------ replay memory
 def test_replay_buffer_stores_depth_as_float16_and_fits_the_paper_buffer():
-    size = 128
-    space = spaces.Dict({"rgb": spaces.Box(0, 255, (3, size, size), np.uint8),
-                         "depth": spaces.Box(0.0, 3.0, (size, size, 1), np.float32),
-                         "local_map": spaces.Box(0, 255, (2, size, size), np.uint8),
-                         "scan": spaces.Box(0.0, 1.0, (220,), np.float32),
-                         "task_obs": spaces.Box(-np.inf, np.inf, (55,), np.float32)})
+    space = transposed_observation_space(128)
     buffer = QMapReplayBuffer(10_000, space, spaces.Discrete(NUM_MAPS * 32 * 32), device="cpu")
     assert buffer.observations["depth"].dtype == np.float16
     assert buffer.nbytes() < 2.5e9  # about 2.33 GB for 1e4 transitions at 128 px
@@ -259,3 +254,43 @@ def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
         obs = env.step(act(obs))[0]
     assert evaluation == {"steps": 5, "violations": 0}
     env.close()
+
+
+# ------------------------------------------------- (f) Q maps finer than the input's quarter
+@pytest.mark.parametrize("skip", [False, True])
+def test_32_by_32_q_maps_from_64_px_follow_the_env_index_order(skip):
+    """The paper's 32 x 32 maps (24,576 actions) from 64 px inputs: one more upsampling stage,
+    and the flat Q values still in the environment's index order."""
+    env = make_env(qmap_size=32)
+    space, control = env.observation_space, env.unwrapped.control
+    net = QMapNetwork(space, **SMALL_NET, skip=skip, q=32)
+    assert net.n_actions == control.action_space.n == NUM_MAPS * 32 * 32
+    last_layer = net.head[-1] if not skip else net.head["out"][-1]
+    captured = {}
+    handle = last_layer.register_forward_hook(lambda module, inputs, output: captured.update(maps=output))
+    with th.no_grad():
+        q_values = net(random_batch(space, 2))
+    handle.remove()
+    assert captured["maps"].shape == (2, NUM_MAPS, 32, 32)
+    for index in np.random.default_rng(2).integers(0, control.action_space.n, 300):
+        part, bin_, i, j = control.decode(int(index))
+        channel = bin_ if part == "base" else YAW_BINS + bin_
+        assert th.equal(q_values[:, index], captured["maps"][:, channel, i, j])
+    env.close()
+
+
+def test_q_map_sides_the_network_cannot_reach_are_refused():
+    env = make_env()
+    with pytest.raises(ValueError, match="2, 4 or 8 times"):
+        QMapNetwork(env.observation_space, **SMALL_NET, q=48)
+    env.close()
+
+
+def test_replay_at_32_by_32_maps_stores_its_masks_at_that_resolution():
+    """At 64 px and 32 x 32 maps a 1e4 replay costs about 0.59 GiB (a 1.6e5 one, 9.4 GiB)."""
+    space = transposed_observation_space(64)
+    buffer = QMapReplayBuffer(10_000, space, spaces.Discrete(NUM_MAPS * 32 * 32), device="cpu")
+    assert buffer.next_masks.shape[-2:] == buffer.masks.shape[-2:] == (32, 32)
+    per_1e4 = buffer.nbytes() / 2**30
+    print(f"replay GiB per 1e4 transitions at 64 px, 32 x 32 maps: {per_1e4:.3f}")
+    assert 0.3 < per_1e4 < 0.8

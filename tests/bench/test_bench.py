@@ -126,3 +126,22 @@ def test_the_training_run_bench_counts_cpu_and_time_shares_from_the_first_update
     shares = result["time_shares"]
     assert {"update", "environment", "checkpoint"} <= set(shares) and 0 < sum(shares.values()) <= 1.0
     assert list(tmp_path.iterdir()) == []  # the run folder is temporary
+
+
+def test_the_training_run_bench_runs_relmogen_d_at_its_qmap_size(tmp_path):
+    from relmogen.bench.train_bench import bench_training_run
+
+    result = bench_training_run("PointNav", preset="tiny", subgoals=20, out=str(tmp_path), algo="relmogen-d")
+    assert result["algo"] == "relmogen-d" and result["qmap_size"] == 16  # tiny: 64 px, the default Q = S / 4
+    assert result["subgoals_timed"] >= 10 and result["episodes_per_cpu_hour"] > 0
+
+
+def test_qmap_resolution_rows_compare_update_costs_against_the_first(monkeypatch):
+    from relmogen.bench import train_bench
+
+    monkeypatch.setattr(train_bench, "QMAP_SETTINGS", ((64, 16), (64, 32)))
+    rows = train_bench.bench_qmap_resolutions("PointNav", updates=1, preset="tiny")
+    assert [(row["image_size"], row["qmap_size"]) for row in rows] == [(64, 16), (64, 32)]
+    assert rows[0]["update_cost_vs_64px_q16"] == 1.0
+    assert rows[1]["update_cost_vs_64px_q16"] == pytest.approx(rows[1]["update_cpu_s"] / rows[0]["update_cpu_s"],
+                                                               rel=0.01, abs=1e-3)

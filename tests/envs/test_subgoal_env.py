@@ -118,19 +118,24 @@ def test_goal_outside_the_window_or_in_a_wall_fails_at_once_with_a_reason(monkey
     env.close()
 
 
-def test_arm_mask_marks_pixels_with_depth_within_reach_and_masked_pushes_find_no_plan():
-    env = RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, arm_collision=False)
+@pytest.mark.parametrize("qmap_size,cell_pixels", [(None, 4), (32, 2)])
+def test_arm_mask_marks_pixels_with_depth_within_reach_and_masked_pushes_find_no_plan(qmap_size, cell_pixels):
+    env = RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, arm_collision=False,
+                      qmap_size=qmap_size)
     _, info = env.reset(seed=1)
     control, frame = env.control, env.last_frame
+    assert info["arm_mask"].shape == info["base_mask"].shape == (64 // cell_pixels,) * 2
     shoulder, reach = env.robot.arm_base_position(), env.robot.spec.arm_reach
     expected = np.zeros((control.q, control.q), dtype=bool)
+    centre = cell_pixels // 2
     for i in range(control.q):
         for j in range(control.q):
-            row, col = 4 * i + 2, 4 * j + 2
+            row, col = cell_pixels * i + centre, cell_pixels * j + centre
             if frame.has_point(row, col):
                 expected[i, j] = np.linalg.norm(env.camera.pixel_to_world(frame, col, row) - shoulder) <= reach
     np.testing.assert_array_equal(info["arm_mask"], expected)
-    far = [(int(i), int(j)) for i, j in np.argwhere(~expected) if frame.has_point(4 * i + 2, 4 * j + 2)]
+    far = [(int(i), int(j)) for i, j in np.argwhere(~expected)
+           if frame.has_point(cell_pixels * i + centre, cell_pixels * j + centre)]
     assert far, "expected pixels beyond the arm's reach in a corridor view"
     for i, j in far[:2]:
         _, _, _, _, step_info = env.step(control.encode("arm", 0, i, j))
@@ -186,6 +191,18 @@ def test_malformed_subgoal_d_actions_raise(action, message):
     env.reset(seed=0)
     with pytest.raises(ValueError, match=message):
         env.step(action)
+    env.close()
+
+
+def test_qmap_size_sets_the_map_side_independently_of_the_image():
+    env = RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, qmap_size=32)
+    control = env.control
+    assert control.q == 32 and control.action_space.n == 24_576  # the paper's action count from 64 px
+    assert [control.cell_pixel(i, j) for i, j in [(0, 0), (1, 2), (31, 31)]] == [(1, 1), (3, 5), (63, 63)]
+    for row in range(64):
+        assert control.pixel_cell(row, row) == (row // 2, row // 2)
+    with pytest.raises(ValueError, match="divisor"):
+        RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, qmap_size=24)
     env.close()
 
 
@@ -247,17 +264,20 @@ def subgoal_r_equivalent(control, index: int) -> np.ndarray:
         yaw = -np.pi + bin_ * 2 * np.pi / 12
         return np.array([1.0, np.arctan2(y, x) / np.deg2rad(110.0), np.hypot(x, y) - 1.0, yaw / np.pi, 0, 0, 0, 0])
     size = control.map_pixels
-    row, col = 4 * i + 2, 4 * j + 2
+    c = size // control.q  # pixels per cell: the arm acts at the cell's centre pixel
+    row, col = c * i + c // 2, c * j + c // 2
     heading = control.push_heading(bin_, i, j)
     return np.array([-1.0, 0, 0, 0, 2 * (row + 0.5) / size - 1, 2 * (col + 0.5) / size - 1,
                      np.cos(heading), np.sin(heading)])
 
 
-@pytest.mark.parametrize("push_frame", ["base", "surface"])
-def test_nearest_index_inverts_the_discrete_actions(push_frame):
+@pytest.mark.parametrize("push_frame,qmap_size", [("base", None), ("surface", None), ("surface", 32)])
+def test_nearest_index_inverts_the_discrete_actions(push_frame, qmap_size):
     """How oracles act through subgoal-d (demonstrations): each discrete action's own meaning,
-    written as a subgoal-r action, maps back to it."""
-    env = RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, push_frame=push_frame)
+    written as a subgoal-r action, maps back to it, at the default 16 x 16 maps of 64 px and at
+    the paper's 32 x 32 from the same 64 px."""
+    env = RelmogenEnv(task="ButtonDoorNav", control="subgoal-d", image_size=64, push_frame=push_frame,
+                      qmap_size=qmap_size)
     env.reset(seed=1)
     control, q = env.control, env.control.q
     cell = 5.0 / q

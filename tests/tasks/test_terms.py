@@ -39,3 +39,25 @@ def test_event_reward_is_paid_once():
 def test_state_reward_scales_the_value():
     term = StateReward("reach", lambda: 0.25, -1.0)
     assert term() == -0.25
+
+
+def test_success_is_paid_only_where_a_subgoal_ends_not_while_it_passes_the_goal():
+    """A base subgoal whose path crosses the goal region but ends outside it earns no success
+    reward; a later subgoal ending inside it earns the +10 (and ends the episode)."""
+    from relmogen.envs.relmogen_env import RelmogenEnv
+
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=16)
+    env.reset(seed=0)
+    task, robot = env.task, env.robot
+    start = robot.base_pose()
+    robot.set_base_pose(*task.goal_xy, 0.0)  # mid-subgoal: inside the goal region
+    assert task.is_success()
+    _, terms = task.reward(decision=False)
+    assert terms.get("success", 0.0) == 0.0
+    robot.set_base_pose(*start)  # the subgoal ends outside it
+    _, terms = task.reward(decision=True)
+    assert terms["success"] == 0.0
+    robot.set_base_pose(*task.goal_xy, 0.0)  # the next subgoal ends inside it
+    _, terms = task.reward(decision=True)
+    assert terms["success"] == 10.0
+    env.close()

@@ -196,15 +196,21 @@ JOINTS = [
 ]
 
 
-def build() -> str:
-    parts = [HEADER]
+def robot_xml(header: str, links, joints) -> str:
+    """The URDF text: ``header`` (XML declaration, comment, ``<robot>``), the materials, then
+    the ``links`` and ``joints`` tables (also used by the Movo builder)."""
+    parts = [header]
     parts += [f'  <material name="{n}"><color rgba="{c}"/></material>' for n, c in MATERIALS.items()]
-    parts += [link_xml(name, mass, shapes, color, collide) for name, mass, shapes, color, collide in LINKS]
-    for name, kind, parent, child, xyz, *rest in JOINTS:
+    parts += [link_xml(name, mass, shapes, color, collide) for name, mass, shapes, color, collide in links]
+    for name, kind, parent, child, xyz, *rest in joints:
         axis, limits = (rest + [None, None])[:2]
         parts.append(joint_xml(name, kind, parent, child, xyz, axis, limits))
     parts.append("</robot>\n")
     return "\n".join(parts)
+
+
+def build() -> str:
+    return robot_xml(HEADER, LINKS, JOINTS)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,72 @@
+"""A trained run's policy acting in its task, for figures drawn from its episodes."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.experiments.config import TrainConfig
+from relmogen.experiments.rollout import FrameRecorder, run_episode
+
+
+@dataclass
+class PolicyRun:
+    """A checkpoint's model, its run's config, and an environment of its task it acts in
+    (``act``: ``obs -> action`` with ``reset``, see ``evaluate.policy_act``)."""
+
+    model: object
+    config: TrainConfig
+    run_dir: Path
+    checkpoint: Path
+    env: RelmogenEnv
+    act: object
+    stochastic: bool
+
+    @property
+    def checkpoint_episode(self) -> int | None:
+        state = self.checkpoint / "state.json"
+        return json.loads(state.read_text()).get("episodes") if state.is_file() else None
+
+    @property
+    def label(self) -> str:
+        episode = self.checkpoint_episode
+        return (f"{self.config.algo} on {self.config.task}, {self.config.env.robot}"
+                + (f" (episode {episode})" if episode is not None else ""))
+
+    def describe(self) -> dict:
+        """The fields every figure's JSON starts with."""
+        return {"run": str(self.run_dir), "task": self.config.task, "algo": self.config.algo,
+                "robot": self.config.env.robot,
+                "checkpoint": self.checkpoint.name, "checkpoint_episode": self.checkpoint_episode,
+                "policy": "stochastic" if self.stochastic else "deterministic"}
+
+    def record(self, recorder: FrameRecorder, episodes: int, seed: int) -> None:
+        """``episodes`` episodes with seeds ``seed, seed + 1, ...``, each seen by ``recorder``;
+        sampled actions are seeded from ``seed`` (``seeded_action_sampling``)."""
+        from relmogen.experiments.evaluate import seeded_action_sampling
+
+        with seeded_action_sampling(seed):
+            for episode in range(episodes):
+                run_episode(self.env, self.act, seed + episode, on_reset=self.act.reset, recorder=recorder)
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def open_policy_run(path: Path, checkpoint: str = "latest", device: str = "auto", stochastic: bool = False,
+                    arm_collision: bool | None = True, robot: str | None = None) -> PolicyRun:
+    """A run directory (its ``checkpoint``: latest, best or a folder) or a checkpoint folder
+    acting in its own task; ``arm_collision=None`` checks arm plans as during its training;
+    ``robot`` puts the policy on another embodiment (``evaluate.with_robot``)."""
+    from relmogen.experiments.evaluate import load_checkpoint, policy_act, resolve_checkpoint, with_robot
+    from relmogen.experiments.train import env_kwargs
+
+    folder, run_dir = resolve_checkpoint(Path(path), checkpoint)
+    model, config = load_checkpoint(folder, run_dir, device)
+    config = with_robot(config, robot)
+    if arm_collision is None:
+        arm_collision = config.env.arm_collision_train
+    env = RelmogenEnv(**env_kwargs(config, arm_collision=arm_collision))
+    return PolicyRun(model, config, run_dir, folder, env, policy_act(model, config, env, stochastic), stochastic)
