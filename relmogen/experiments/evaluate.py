@@ -43,7 +43,7 @@ from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import EnvConfig, TrainConfig, read_config
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
-from relmogen.experiments.train import env_kwargs, latest_checkpoint, model_class, resolve_device
+from relmogen.experiments.train import checkpoint_state, env_kwargs, latest_checkpoint, model_class, resolve_device
 from relmogen.visualisation.video import VIDEO_FPS, AnnotatedRecorder
 from relmogen.visualisation.views import check_animation_path, write_animation
 
@@ -199,7 +199,7 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
     model, config = load_checkpoint(folder, run_dir, device)
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
                             stochastic, skip_no_ops, video, robot)
-    state = json.loads((folder / "state.json").read_text()) if (folder / "state.json").is_file() else {}
+    state = checkpoint_state(folder)
     result = {**result, "checkpoint": folder.name, "checkpoint_episode": state.get("episodes")}
     if save:
         (run_dir / "eval").mkdir(exist_ok=True)

@@ -46,7 +46,7 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
     Returns what was loaded, for ``init_from.json``."""
     from stable_baselines3.common.save_util import load_from_zip_file, recursive_setattr
 
-    from relmogen.experiments.train import latest_replay
+    from relmogen.experiments.train import checkpoint_state, latest_replay
 
     data, params, variables = load_from_zip_file(Path(folder) / "model.zip", device=model.device)
     for name in ("observation_space", "action_space"):
@@ -58,9 +58,8 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
     for name, value in variables.items():  # e.g. SAC's log_ent_coef, as BaseAlgorithm.load restores them
         recursive_setattr(model, f"{name}.data", value.data)
     source = read_config(Path(source_run) / "config.yaml")
-    state_file = Path(folder) / "state.json"
     record = {"run": str(Path(source_run).resolve()), "checkpoint": str(Path(folder).resolve()),
-              "checkpoint_episode": json.loads(state_file.read_text()).get("episodes") if state_file.is_file() else None,
+              "checkpoint_episode": checkpoint_state(folder).get("episodes"),
               "task": source.task, "algo": source.algo, "robot": source.env.robot, "scene": source.env.scene,
               "second_scene": source.env.second_scene, "replay": None, "replay_transitions": 0}
     if with_replay:

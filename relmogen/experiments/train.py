@@ -234,6 +234,12 @@ def latest_replay(run_dir: Path) -> Path | None:
     return checkpoint / REPLAY_FILE if checkpoint is not None and (checkpoint / REPLAY_FILE).is_file() else None
 
 
+def checkpoint_state(folder: Path) -> dict:
+    """The ``state.json`` of a checkpoint folder (episodes, timesteps, ...); {} if it has none."""
+    path = Path(folder) / "state.json"
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
 def write_checkpoint(run_dir: Path, model, state: dict, with_replay: bool = True) -> Path:
     """The model (and, when asked, the replay buffer in its own folder) published atomically;
     older folders of the same kind are removed once the new one is in place."""

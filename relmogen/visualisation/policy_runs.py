@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,8 +25,9 @@ class PolicyRun:
 
     @property
     def checkpoint_episode(self) -> int | None:
-        state = self.checkpoint / "state.json"
-        return json.loads(state.read_text()).get("episodes") if state.is_file() else None
+        from relmogen.experiments.train import checkpoint_state
+
+        return checkpoint_state(self.checkpoint).get("episodes")
 
     @property
     def label(self) -> str:
