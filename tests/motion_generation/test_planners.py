@@ -94,3 +94,34 @@ def test_global_rngs_untouched():
     np.random.seed(5)
     make_planner("rrt_connect").plan(sphere_problem(), rng=0)
     assert (random.random(), np.random.random()) == expected
+
+
+def test_lazy_prm_gives_up_at_its_time_limit():
+    """Without a limit, a lazy search retries after every colliding edge and then tries every
+    larger roadmap (one failing PointNav base plan took 206 s)."""
+    import time
+
+    problem = sphere_problem()
+    sphere = problem.collision_fn
+
+    def slow_collision_fn(q):
+        time.sleep(0.002)
+        return sphere(q)
+
+    problem.collision_fn = slow_collision_fn
+    result = make_planner("lazy_prm", roadmap_sizes=(200, 200), max_time_s=0.05).plan(problem, rng=0)
+    assert result.reason == "time limit reached"
+    assert make_planner("lazy_prm").params.max_time_s == 10.0
+
+
+def test_lazy_prm_distance_is_the_weighted_euclidean_norm():
+    from relmogen.motion_generation.planners import _weighted_distance_fn
+
+    rng = np.random.default_rng(0)
+    weights = rng.uniform(1, 30, 8)
+    distance = _weighted_distance_fn(weights)
+    for _ in range(20):
+        a, b = rng.normal(size=8), rng.normal(size=8)
+        assert distance(a, b) == pytest.approx(np.linalg.norm(weights * b - weights * a))
+    with pytest.raises(ValueError, match="Euclidean"):
+        _weighted_distance_fn(weights, p_norm=1)
