@@ -102,8 +102,32 @@ def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
             "eval_every": config.run.eval_every_episodes,
             "all_evals": [read_evaluation(p) for p in sorted((run_dir / "eval").glob("*.json"))],
             "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
+            "periodic": read_periodic_evaluations(run_dir),
         })
     return groups
+
+
+def read_periodic_evaluations(run_dir: Path) -> list[dict]:
+    """The evaluations made during training (``eval_during_training.jsonl``), in order."""
+    path = run_dir / "eval_during_training.jsonl"
+    lines = path.read_text().splitlines() if path.is_file() else []
+    return [json.loads(line) for line in lines if line.strip()]
+
+
+SR_MILESTONES = (0.5, 0.9)  # the training episodes at which periodic evaluation first reached these
+
+
+def episodes_to_success_rate(periodic: list[dict], threshold: float) -> int | None:
+    """The training episodes at the first periodic evaluation with success rate >= ``threshold``
+    (None if none did). Those evaluations are short (``run.eval_episodes``), so this is a noisy
+    first passage, not a converged figure."""
+    return next((int(e["episode"]) for e in periodic if e.get("success_rate", 0.0) >= threshold), None)
+
+
+def _milestones(runs: list[dict]) -> dict[str, list[int | None]]:
+    """Per milestone of ``SR_MILESTONES`` (key ``"0.5"``...), each seed's ``episodes_to_success_rate``."""
+    return {f"{threshold:g}": [episodes_to_success_rate(run.get("periodic", []), threshold) for run in runs]
+            for threshold in SR_MILESTONES}
 
 
 def _state(run_dir: Path) -> dict:
@@ -189,7 +213,8 @@ def reference_rows(groups: dict[tuple[str, str], list[dict]]) -> list[dict]:
     rows = []
     for (task, algo), runs in sorted(groups.items()):
         evaluations = [run["eval"] for run in runs if run["eval"] is not None]
-        rows.append(_row(task, algo, True, runs, evaluations, _shared_setting(evaluations)))
+        row = _row(task, algo, True, runs, evaluations, _shared_setting(evaluations))
+        rows.append(row | {"episodes_to_success_rate": _milestones(runs)})
     return rows
 
 
@@ -214,7 +239,9 @@ def table_json(rows: list[dict]) -> dict:
     ``task``, ``algorithm``, ``reference`` (true: the reference table, each seed's ``final_evaluation``;
     false: one evaluation setting), the setting (``SETTING_KEYS``; null where the evaluations disagree or
     do not record it), ``seeds``, ``assisted``, the mean training budget (``episodes``, ``wall_hours``,
-    ``cpu_hours``) and per metric of ``ROW_METRICS`` ``{mean, std, max}`` over seeds, or null."""
+    ``cpu_hours``) and per metric of ``ROW_METRICS`` ``{mean, std, max}`` over seeds, or null. Reference
+    rows also have ``episodes_to_success_rate``: per milestone (``"0.5"``, ``"0.9"``) a list with each
+    seed's training episodes at its first periodic evaluation that reached it (null if none)."""
     return {"schema_version": TABLE_JSON_SCHEMA_VERSION, "rows": rows}
 
 
@@ -258,13 +285,22 @@ def markdown_grid(header: list[str], lines: list[list[str]]) -> str:
 def reference_table(rows: list[dict]) -> str:
     """The markdown table of the reference rows, with a note on what the cells are."""
     metrics = shown_metrics(rows, TABLE_METRICS)
-    header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "wall-clock h", "CPU h"]
+    milestones = [f"episodes to SR {threshold:g}" for threshold in SR_MILESTONES]
+    header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "wall-clock h", "CPU h", *milestones]
     lines = [[row["task"], row["algorithm"], training_of(row), str(row["seeds"]),
               *(metric_cell(row, metric) for metric in metrics),
-              str(int(row["episodes"])), hours_cell(row["wall_hours"]), hours_cell(row["cpu_hours"])] for row in rows]
+              str(int(row["episodes"])), hours_cell(row["wall_hours"]), hours_cell(row["cpu_hours"]),
+              *(seeds_cell(row["episodes_to_success_rate"][f"{t:g}"]) for t in SR_MILESTONES)] for row in rows]
     return (markdown_grid(header, lines) + "\n\nCells are mean / std / max over seeds of the final evaluation "
             "(deterministic policy). episodes, wall-clock h and CPU h (trainer plus environment workers) are means "
-            "over seeds. training: assisted where a run used oracle demonstrations or oracle labels.")
+            "over seeds. training: assisted where a run used oracle demonstrations or oracle labels. episodes to "
+            "SR x: per seed, the training episodes at the first periodic evaluation (a few episodes, as during "
+            "training) with success rate at least x; - if none.")
+
+
+def seeds_cell(values: list) -> str:
+    """A markdown cell listing one value per seed, ``-`` for None."""
+    return ", ".join(text_cell(value) for value in values) or "-"
 
 
 def settings_table(rows: list[dict]) -> str:

@@ -213,3 +213,15 @@ def test_an_evaluation_of_the_best_checkpoint_is_a_setting_of_its_own_not_the_re
     rows = json.loads((tmp_path / "report" / "table.json").read_text())["rows"]
     best = [row for row in rows if row["checkpoint"] == "best"]
     assert len(best) == 1 and best[0]["success_rate"]["mean"] == 0.9 and not best[0]["reference"]
+
+
+def test_reference_rows_give_the_episodes_at_which_periodic_evaluation_first_reached_05_and_09(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", s, 0.9, 0.5) for s in (0, 1)]
+    for run, rates in zip(runs, [(0.1, 0.6, 0.4, 0.9), (0.0, 0.2, 0.5, 0.8)]):
+        (run / "eval_during_training.jsonl").write_text("".join(
+            json.dumps({"episode": 100 * (i + 1), "success_rate": rate}) + "\n" for i, rate in enumerate(rates)))
+    result = write_report(runs, tmp_path / "report")
+    reference = next(row for row in json.loads((tmp_path / "report" / "table.json").read_text())["rows"]
+                     if row["reference"])
+    assert reference["episodes_to_success_rate"] == {"0.5": [200, 300], "0.9": [400, None]}
+    assert "200, 300" in result["markdown"] and "400, -" in result["markdown"]
