@@ -225,3 +225,53 @@ def test_default_push_keeps_the_original_duration_and_opens_a_door_as_far():
         angles.append(abs(p.getJointState(door, 0, physicsClientId=w.client)[0]))
         w.close()
     assert angles[0] > 0.1 and angles[0] == pytest.approx(angles[1], rel=0.2), angles
+
+
+# ---------------------------------------------------------------------------- the pushed body
+
+
+def box_around_gripper(world, robot, depth: float) -> tuple[ArmMotion, int]:
+    """Reach straight ahead, then slide a wide static box in along -x until the gripper links are
+    ``depth`` inside it (PyBullet's penetration depth), touching no other link."""
+    arm = ArmMotion(world.client, robot)
+    robot.set_joint_positions(robot.arm_joint_indices, arm.ik(np.array([0.8, 0.0, 0.9]), np.random.default_rng(0)))
+    centre = robot.end_effector_position()
+    box = add_box(world.client, [0.1, 0.3, 0.3], centre + [0.5, 0, 0])
+    for x in np.arange(0.5, 0.0, -0.002):
+        p.resetBasePositionAndOrientation(box, (centre + [x, 0, 0]).tolist(), [0, 0, 0, 1],
+                                          physicsClientId=world.client)
+        if arm._gripper_penetration(box) >= depth:
+            break
+    contacts = p.getClosestPoints(robot.robot_id, box, 0.0, physicsClientId=world.client)
+    assert {c[3] for c in contacts} <= set(robot.gripper_link_indices)
+    return arm, box
+
+
+def test_the_gripper_may_go_deeper_into_the_pushed_body_than_into_any_other(world, robot):
+    arm, box = box_around_gripper(world, robot, depth=0.05)
+    config = arm.config
+    assert config.gripper_penetration_allowance < 0.05 < config.target_penetration_allowance
+    arm.checker.target_body = None
+    assert arm.checker.current_pose_in_collision()
+    arm.checker.target_body = box
+    assert not arm.checker.current_pose_in_collision()
+    other = add_box(world.client, [0.05, 0.05, 0.05], robot.link_pose(robot.gripper_link_indices[0])[0])
+    assert arm.checker.current_pose_in_collision(), "only the pushed body is exempt"
+    p.removeBody(other, physicsClientId=world.client)
+    arm.checker.target_body = box
+    p.resetBasePositionAndOrientation(box, [5, 5, 5], [0, 0, 0, 1], physicsClientId=world.client)
+    assert arm.body_at(robot.end_effector_position()) is None
+
+
+def test_body_at_finds_the_surface_the_subgoal_point_lies_on(world, robot):
+    arm = ArmMotion(world.client, robot)
+    box = add_box(world.client, [0.15, 0.15, 0.15], [0.9, 0.0, 0.65])
+    assert arm.body_at(np.array([0.75, 0.0, 0.65])) == box  # on its -x face
+    assert arm.body_at(np.array([0.5, 0.0, 0.65])) is None  # in the air before it
+
+
+def test_a_push_starts_with_the_gripper_backed_out_to_contact(world, robot):
+    arm, box = box_around_gripper(world, robot, depth=0.07)
+    assert arm._gripper_penetration(box) > arm.config.gripper_penetration_allowance
+    arm._back_out_of(box, np.array([1.0, 0.0, 0.0]))
+    assert arm._gripper_penetration(box) <= arm.config.gripper_penetration_allowance
