@@ -275,3 +275,22 @@ def test_a_push_starts_with_the_gripper_backed_out_to_contact(world, robot):
     assert arm._gripper_penetration(box) > arm.config.gripper_penetration_allowance
     arm._back_out_of(box, np.array([1.0, 0.0, 0.0]))
     assert arm._gripper_penetration(box) <= arm.config.gripper_penetration_allowance
+
+
+def test_the_first_plan_attempt_keeps_the_gripper_out_of_the_pushed_body_and_later_ones_let_it_in(
+        world, robot, monkeypatch):
+    from relmogen.motion_generation.ik import IKResult
+
+    arm = ArmMotion(world.client, robot)
+    box = add_box(world.client, [0.15, 0.15, 0.15], [0.9, 0.0, 0.65])
+    seen = []
+
+    def solve_ik(target, rng, from_current=True):
+        seen.append(arm.checker.target_body)
+        return IKResult(None, "IK solution in collision", 0.0, 1)
+
+    monkeypatch.setattr(arm, "solve_ik", solve_ik)
+    result = arm.reach_and_push(np.array([0.75, 0.0, 0.65]), PUSH, np.random.default_rng(0))
+    assert not result.success and result.reason == "IK solution in collision"
+    assert seen == [None, box], "strict first; one more IK with the exemption, then give up"
+    assert arm.checker.target_body is None
