@@ -307,6 +307,7 @@ class ArmMotion:
                 plan = self.plan(ik.config, rng) if ik.config is not None else None
                 if plan is not None and plan.success:
                     break
+            sunk_into = self.checker.target_body  # the body a solution may be deep in, if any
         finally:
             self.checker.target_body = None
         planning_time = time.perf_counter() - start
@@ -317,7 +318,7 @@ class ArmMotion:
         self._move_kinematically(plan.path[-1])
         if on_reached is not None:
             on_reached(plan.path)
-        self._back_out_of(target_body, self._approach_direction(target))
+        self._back_out_of(sunk_into, self._approach_direction(target))
         steps, pushed = self._push(push_vector_world, on_physics_steps)
         self._retreat_and_tuck(push_vector_world)
         return ArmResult(True, self._push_outcome(push_vector_world, pushed), planning_time, steps * self.time_step, steps, pushed,
