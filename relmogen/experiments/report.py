@@ -63,11 +63,8 @@ def final_evaluation(run_dir: Path) -> dict | None:
     if same_planners:
         best = max(same_planners, key=lambda e: (e.get("episodes", 0), e["_mtime"]))
         return {k: v for k, v in best.items() if k != "_mtime"}
-    periodic = run_dir / "eval_during_training.jsonl"
-    if periodic.is_file():
-        lines = periodic.read_text().strip().splitlines()
-        return json.loads(lines[-1]) if lines else None
-    return None
+    periodic = read_periodic_evaluations(run_dir)
+    return periodic[-1] if periodic else None
 
 
 def read_evaluation(path: Path) -> dict:

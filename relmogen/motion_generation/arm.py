@@ -108,7 +108,7 @@ class ArmCollisionChecker:
         gripper = set(robot.gripper_link_indices)
         self._world_thresholds = {link: -gripper_penetration_allowance if link in gripper else 0.0
                                   for link in self.moving_links}
-        self._gripper_links = gripper & set(self.moving_links)
+        self.gripper_links = gripper & set(self.moving_links)
         candidates = self._self_pair_candidates(shaped, anchors)
         self.ignored_pairs = self._pairs_touching_at_default_pose(candidates)
         self.self_pairs = [pair for pair in candidates if pair not in self.ignored_pairs]
@@ -185,7 +185,7 @@ class ArmCollisionChecker:
             threshold = self._world_thresholds.get(link)
             if threshold is None or other == body:
                 continue
-            if other == self.target_body and link in self._gripper_links:
+            if other == self.target_body and link in self.gripper_links:
                 threshold = self._target_threshold
             if contact[8] < threshold:
                 return True
@@ -266,7 +266,7 @@ class ArmMotion:
 
     def _gripper_penetration(self, body: int) -> float:
         """How deep (m, >= 0) the gripper links are inside ``body``."""
-        gripper = self.checker._gripper_links
+        gripper = self.checker.gripper_links
         contacts = p.getClosestPoints(self.robot.robot_id, body, 0.0, physicsClientId=self.client)
         return max([-c[8] for c in contacts if c[3] in gripper], default=0.0)
 
@@ -295,13 +295,14 @@ class ArmMotion:
         start = time.perf_counter()
         target = np.asarray(target_xyz_world, dtype=np.float64)
         target_body = self.body_at(target)
+        exemption_can_help = target_body is not None and self.config.collision_checking
         try:
             for attempt in range(self.config.plan_attempts):
                 # The first attempt holds the gripper to gripper_penetration_allowance everywhere;
                 # later ones let it sink into the pushed body (target_penetration_allowance).
                 self.checker.target_body = target_body if attempt > 0 else None
                 ik = self.solve_ik(target, rng, from_current=attempt == 0)
-                if ik.config is None and (attempt > 0 or target_body is None or not self.config.collision_checking):
+                if ik.config is None and (attempt > 0 or not exemption_can_help):
                     return ArmResult(False, ik.reason, planning_time_s=time.perf_counter() - start,
                                      wall_time_s=time.perf_counter() - start)
                 plan = self.plan(ik.config, rng) if ik.config is not None else None
