@@ -69,7 +69,9 @@ class SGPREncoder(BaseFeaturesExtractor):
         # channels-last convolutions (oneDNN on CPU): updates 64 -> 60 ms of CPU at 64 px, batch 64
         self.image_conv.to(memory_format=th.channels_last)
         self.scan = _scan_branch(observation_space["scan"].shape[0], scan_dim)
-        task_in = observation_space["task_obs"].shape[0]
+        # SGP-R's optional ``last_subgoal`` (the previous action and its no-op flag) joins the task vector
+        self.task_keys = [key for key in ("task_obs", "last_subgoal") if key in observation_space.spaces]
+        task_in = sum(observation_space[key].shape[0] for key in self.task_keys)
         self.task = nn.Sequential(nn.Linear(task_in, 128), nn.ReLU(), nn.Linear(128, 128), nn.ReLU(),
                                   nn.Linear(128, task_dim), nn.ReLU())
         self.image_shift, self.augmenting = int(image_shift), False
@@ -79,11 +81,14 @@ class SGPREncoder(BaseFeaturesExtractor):
     def fit_input_scaling(self, observations: dict[str, th.Tensor]) -> None:
         """Standardise ``scan`` and ``task_obs`` with the statistics of this batch from now on."""
         self.scan_scaling.fit(observations["scan"].float())
-        self.task_scaling.fit(observations["task_obs"].float())
+        self.task_scaling.fit(self.task_vector(observations))
 
     @property
     def input_scaling_fitted(self) -> bool:
         return bool(self.task_scaling.fitted)
+
+    def task_vector(self, observations: dict[str, th.Tensor]) -> th.Tensor:
+        return th.cat([observations[key].float() for key in self.task_keys], dim=1)
 
     def image_tensor(self, observations: dict[str, th.Tensor]) -> th.Tensor:
         """RGB in [0, 1] and depth / 3 m stacked channels-first: (B, 4, H, W)."""
@@ -101,7 +106,7 @@ class SGPREncoder(BaseFeaturesExtractor):
             images = random_shift(images, self.image_shift)
         image = self.image_fc(self.image_conv(images.contiguous(memory_format=th.channels_last)))
         scan = self.scan(self.scan_scaling(observations["scan"].float()).unsqueeze(1))
-        task = self.task(self.task_scaling(observations["task_obs"].float()))
+        task = self.task(self.task_scaling(self.task_vector(observations)))
         return th.cat([image, scan, task], dim=1)
 
 

@@ -113,7 +113,7 @@ class SharedEncoderSAC(SAC):
         buffer = self.replay_buffer
         rows = stored_rows(buffer)[-max(INPUT_SCALING_SAMPLE // buffer.n_envs, 1):]
         stored = {key: th.as_tensor(buffer.observations[key][rows].reshape(len(rows) * buffer.n_envs, -1))
-                  for key in ("scan", "task_obs")}
+                  for key in ("scan", *encoders[0].task_keys)}
         for encoder in encoders:
             encoder.fit_input_scaling(stored)
 

@@ -35,6 +35,11 @@ When no plan is found the step is a no-op: nothing moves, the reward is 0, and i
 that executed nothing: no plan, or a base plan stopped before its first waypoint. A no-op
 leaves the observation unchanged, so a deterministic policy that chose one repeats it; the
 cost teaches the critic that it loses the step.
+
+``subgoal_feedback`` (``subgoal-r`` only; ours, off by default) adds the observation
+``last_subgoal`` (9,) float32: the previous action (clipped to [-1, 1]; zeros after a reset)
+and 1.0 if it executed nothing (``executed_nothing``), else 0.0. A no-op then changes the
+observation, so the policy can choose differently after one instead of repeating it.
 """
 
 from __future__ import annotations
@@ -182,16 +187,35 @@ class SubgoalControl(Control):
         return StepOutcome(rewards.total, termination, rewards.terms, info)
 
 
+FEEDBACK_DIM = 9  # ``last_subgoal``: the 8-D action and the executed-nothing flag
+
+
 class SubgoalRControl(SubgoalControl):
     name = "subgoal-r"
 
-    def __init__(self, env: RelmogenEnv, **options: Any):
+    def __init__(self, env: RelmogenEnv, subgoal_feedback: bool = False, **options: Any):
         super().__init__(env, **options)
         self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
+        self.subgoal_feedback = bool(subgoal_feedback)
+        self._last_subgoal = np.zeros(FEEDBACK_DIM, dtype=np.float32)
+
+    def reset(self) -> None:
+        self._last_subgoal = np.zeros(FEEDBACK_DIM, dtype=np.float32)
 
     def step(self, action) -> StepOutcome:
         part, target = self.decode_continuous(action)
-        return self.outcome(*(self.execute_base(*target) if part == "base" else self.execute_arm(*target)))
+        result, rewards = self.execute_base(*target) if part == "base" else self.execute_arm(*target)
+        self._last_subgoal = np.append(np.clip(np.asarray(action, dtype=np.float32), -1.0, 1.0),
+                                       np.float32(executed_nothing(result)))
+        return self.outcome(result, rewards)
+
+    def extra_observation(self) -> dict[str, np.ndarray]:
+        return {"last_subgoal": self._last_subgoal.copy()} if self.subgoal_feedback else {}
+
+    def extra_observation_space(self) -> dict[str, spaces.Space]:
+        if not self.subgoal_feedback:
+            return {}
+        return {"last_subgoal": spaces.Box(-1.0, 1.0, (FEEDBACK_DIM,), np.float32)}
 
 
 def decode_indices(indices, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -40,6 +40,8 @@ class EnvConfig(_Strict):
     # "nearest_free" drives to the nearest free pose toward it (ours; base_planner.py)
     base_goal: Literal["strict", "nearest_free"] = "strict"
     noop_cost: float = Field(0.0, ge=0)  # subgoal controls: reward -cost for a subgoal that executed nothing (ours)
+    # relmogen-r: observe the previous subgoal and whether it executed nothing (ours; subgoal_controls.py)
+    subgoal_feedback: bool = False
     robot: str = "fetch"  # the embodiment: a folder of relmogen/robots/assets with a spec.yaml (fetch, movo)
     # The paper's fine-tuning to a new scene (appendix, PushDoorNav Scene-A -> Scene-B): the last
     # round(second_scene_fraction x n_envs) training environments run in second_scene (a scene

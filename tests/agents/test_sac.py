@@ -89,6 +89,22 @@ def test_input_scaling_is_fitted_once_on_the_replay_and_shared_with_the_target_e
     model.get_env().close()
 
 
+def test_subgoal_feedback_joins_the_task_branch_and_its_scaling():
+    config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=1,
+                            overrides=["env.subgoal_feedback=true"])
+    model = build_model(config, make_training_env(config))
+    model._setup_learn(total_timesteps=1)
+    fill_replay(model, 12)
+    encoder = model.critic.features_extractor
+    task_dim = model.observation_space["task_obs"].shape[0]
+    assert encoder.task_keys == ["task_obs", "last_subgoal"]
+    assert encoder.task[0].in_features == task_dim + 9 and encoder.task_scaling.mean.shape == (task_dim + 9,)
+    model.train(gradient_steps=1, batch_size=8)
+    feedback = th.as_tensor(model.replay_buffer.observations["last_subgoal"][: model.replay_buffer.pos, 0])
+    assert th.allclose(encoder.task_scaling.mean[task_dim:], feedback.mean(dim=0), atol=1e-5)
+    model.get_env().close()
+
+
 def test_weights_saved_before_the_scaling_existed_load_as_the_identity():
     encoder = tiny_sgpr().critic.features_extractor
     old = {key: value for key, value in encoder.state_dict().items() if "_scaling." not in key}

@@ -396,3 +396,24 @@ def test_nearest_free_base_goals_plan_where_strict_ones_find_none():
     assert moved_back
     strict.close()
     loose.close()
+
+
+def test_subgoal_feedback_observes_the_previous_action_and_whether_it_executed_nothing():
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64, subgoal_feedback=True)
+    assert env.observation_space["last_subgoal"].shape == (9,)
+    obs, _ = env.reset(seed=0)
+    np.testing.assert_array_equal(obs["last_subgoal"], np.zeros(9, dtype=np.float32))
+    seen = set()
+    for angle in np.linspace(-110, 110, 12):  # some of these 2 m goals are in walls (strict: no plan)
+        action = base_action(angle, 2.0)
+        obs, _, _, _, info = env.step(action)
+        no_op = not info["plan_found"] or info["sim_time_s"] == 0.0
+        np.testing.assert_allclose(obs["last_subgoal"][:8], action)
+        assert obs["last_subgoal"][8] == float(no_op)
+        assert env.observation_space.contains(obs)
+        seen.add(no_op)
+    assert seen == {True, False}
+    obs, _ = env.reset(seed=1)
+    np.testing.assert_array_equal(obs["last_subgoal"], np.zeros(9, dtype=np.float32))
+    env.close()
+    assert "last_subgoal" not in RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64).observation_space.spaces
