@@ -57,7 +57,7 @@ class ArmConfig:
     # checked the 8 arm-joint links only), which let it reach through walls; here only the pushed
     # body is exempt, and only this deep. Random PushDoorNav door-front arm subgoals planned in
     # one IK + plan attempt: 35% at 0.03, 69% at 0.05, 66% at 0.08, 72% at 0.10, 99% with no
-    # checking (results/table1/PushDoorNav__relmogen-r/arm_check_diagnosis.txt). The first attempt
+    # checking (results/pushdoornav-collision-on/arm_check_diagnosis.txt). The first attempt
     # keeps 0.03, so that what planned before plans alike.
     target_penetration_allowance: float = 0.08
     push_max_length: float = 0.25

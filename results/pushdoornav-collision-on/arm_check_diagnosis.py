@@ -1,7 +1,7 @@
 """How often a random arm subgoal in front of the PushDoorNav door gets a collision-checked plan,
 for several allowances of the gripper inside the pushed body (COMMANDS.md, "Arm collision checks").
 
-    python results/table1/PushDoorNav__relmogen-r/arm_check_diagnosis.py [--trials 80]
+    python results/pushdoornav-collision-on/arm_check_diagnosis.py [--trials 80]
 
 Each trial puts the base 0.4-1.0 m before the closed door (lateral offset up to 0.6 m, yaw within
 0.5 rad of facing the push bar), picks a uniform random pixel of the 64 px depth image and, for a
