@@ -1,6 +1,7 @@
-"""Training success against episodes and against CPU hours for three sets of PushDoorNav
+"""Training success against episodes and against CPU hours for four sets of PushDoorNav
 ReLMoGen-R runs (3 seeds each): arm collision checking off in training (the paper's), on (first
-version of the pushed-body rule), and on with `subgoal_feedback` and one update per 2 transitions.
+version of the pushed-body rule), on with `subgoal_feedback` and one update per 2 transitions,
+and off with `subgoal_feedback` (the Table I row).
 CPU hours per episode are the run's wall-clock scaled by its done.json CPU / wall ratio.
 
     python results/pushdoornav-feedback/compare_curves.py   # writes compare_curves.png here
@@ -19,8 +20,9 @@ import numpy as np  # noqa: E402
 RESULTS = Path(__file__).resolve().parent.parent
 SETS = {
     "collision off in training": RESULTS / "pushdoornav-collision-off",
-    "collision on, first rule": RESULTS / "table1" / "PushDoorNav__relmogen-r",
+    "collision on, first rule": RESULTS / "pushdoornav-collision-on",
     "collision on + feedback, 2x updates": RESULTS / "pushdoornav-feedback",
+    "collision off + feedback (Table I)": RESULTS / "table1" / "PushDoorNav__relmogen-r",
 }
 WINDOW = 100
 
@@ -38,7 +40,7 @@ def run_curve(run: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def main() -> None:
     fig, (by_episode, by_cpu) = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-    for (label, folder), colour in zip(SETS.items(), ("tab:grey", "tab:blue", "tab:red")):
+    for (label, folder), colour in zip(SETS.items(), ("tab:grey", "tab:blue", "tab:red", "tab:green")):
         for i, run in enumerate(sorted(folder.glob("PushDoorNav__relmogen-r__*"))):
             episodes, cpu_hours, rolling = run_curve(run)
             by_episode.plot(episodes, rolling, color=colour, alpha=0.8, label=label if i == 0 else None)
