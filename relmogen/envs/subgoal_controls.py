@@ -197,7 +197,7 @@ class SubgoalRControl(SubgoalControl):
         super().__init__(env, **options)
         self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
         self.subgoal_feedback = bool(subgoal_feedback)
-        self._last_subgoal = np.zeros(FEEDBACK_DIM, dtype=np.float32)
+        self.reset()
 
     def reset(self) -> None:
         self._last_subgoal = np.zeros(FEEDBACK_DIM, dtype=np.float32)
