@@ -91,14 +91,14 @@ class SGPREncoder(BaseFeaturesExtractor):
         return th.cat([observations[key].float() for key in self.task_keys], dim=1)
 
     def image_tensor(self, observations: dict[str, th.Tensor]) -> th.Tensor:
-        """RGB in [0, 1] and depth / 3 m stacked channels-first: (B, 4, H, W)."""
-        rgb = observations["rgb"].float()
-        if not self.channels_first:
-            rgb = rgb.permute(0, 3, 1, 2)
-        rgb = rgb / 255.0
+        """RGB in [0, 1] and depth / 3 m as a (B, 4, H, W) view of a channels-last tensor: the
+        channels are concatenated last, so the convolutions' layout costs no second copy (the
+        channels-first cat plus a channels-last copy took 5-10x longer at batch 64)."""
+        rgb = observations["rgb"]
+        rgb = rgb.permute(0, 2, 3, 1) if self.channels_first else rgb
         depth = observations["depth"].float()
-        depth = depth.permute(0, 3, 1, 2) if depth.shape[-1] == 1 else depth
-        return th.cat([rgb, depth / DEPTH_SCALE], dim=1)
+        depth = depth.permute(0, 2, 3, 1) if depth.shape[-1] != 1 else depth
+        return th.cat([rgb.float().mul_(1.0 / 255.0), depth / DEPTH_SCALE], dim=3).permute(0, 3, 1, 2)
 
     def forward(self, observations: dict[str, th.Tensor]) -> th.Tensor:
         images = self.image_tensor(observations)

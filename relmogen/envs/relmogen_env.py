@@ -87,6 +87,8 @@ class RelmogenEnv(gym.Env):
         self.elapsed_steps = 0
         self.sim_time = 0.0
         self.last_frame = None
+        self.last_scan: np.ndarray | None = None  # raw ranges of the last observation
+        self._last_scan_pose: np.ndarray | None = None
         self.frame_hook = None  # called during subgoal execution (videos of the motion)
 
     # ------------------------------------------------------------------ gymnasium API
@@ -156,10 +158,11 @@ class RelmogenEnv(gym.Env):
         position, rotation = self.robot.camera_pose()
         frame = self.camera.capture(position, rotation)
         self.last_frame = frame
+        self.last_scan, self._last_scan_pose = self.scan(), np.asarray(self.robot.base_pose(), dtype=np.float64)
         obs = {
             "rgb": frame.rgb,
             "depth": frame.depth[..., None],
-            "scan": self.scan() / np.float32(self.lidar.max_range),
+            "scan": self.last_scan / np.float32(self.lidar.max_range),
             "task_obs": self.task.task_obs(),
         }
         obs.update(self.control.extra_observation())
@@ -167,6 +170,14 @@ class RelmogenEnv(gym.Env):
             raise RuntimeError(f"non-finite observation in {self.task.name}: task_obs={obs['task_obs']}, "
                                f"robot pose={self.robot.base_pose()}; the physics state is broken")
         return obs
+
+    def observed_scan(self) -> np.ndarray:
+        """The last observation's scan while the robot stands where it was taken (the paper plans
+        on the most recent scan; this saves a ray cast per base subgoal), else a fresh one."""
+        if self._last_scan_pose is not None and np.allclose(self.robot.base_pose(), self._last_scan_pose,
+                                                            rtol=0.0, atol=1e-9):
+            return self.last_scan
+        return self.scan()
 
     def scan(self) -> np.ndarray:
         position, _ = self.robot.lidar_pose()

@@ -131,7 +131,7 @@ class SubgoalControl(Control):
 
     def execute_base(self, goal_robot_frame: np.ndarray) -> tuple[SubgoalResult, RewardAccumulator]:
         rewards = RewardAccumulator(self.env)
-        result = self.mg.move_base(goal_robot_frame, self.env.np_random, rewards.tick)
+        result = self.mg.move_base(goal_robot_frame, self.env.np_random, rewards.tick, ranges=self.env.observed_scan())
         return result, rewards.close()
 
     def execute_arm(self, pixel_row: int, pixel_col: int, push_base: np.ndarray):
@@ -342,7 +342,7 @@ class SubgoalDControl(SubgoalControl):
 
     # ------------------------------------------------------------------ observations
     def extra_observation(self) -> dict[str, np.ndarray]:
-        ranges = self.env.scan()
+        ranges = self.env.last_scan  # the observation's own scan, taken just before
         self._base_mask = self._free_cells(self.mg.local_map(ranges))
         self._arm_mask = self._arm_cells()
         obs_map = self.mg.local_map(ranges, resolution=LOCAL_MAP_M / self.map_pixels)

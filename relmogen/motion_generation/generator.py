@@ -119,9 +119,12 @@ class MotionGenerator:
             resolution or self.config.map_resolution,
         )
 
-    def move_base(self, goal_robot_frame: np.ndarray, rng: np.random.Generator, tick: Tick) -> SubgoalResult:
+    def move_base(self, goal_robot_frame: np.ndarray, rng: np.random.Generator, tick: Tick,
+                  ranges: np.ndarray | None = None) -> SubgoalResult:
+        """``ranges``: the scan to map, if one was taken where the robot stands (the paper plans
+        on the most recent scan); a fresh scan otherwise."""
         planner = self.config.base_planner
-        plan = plan_base(self.local_map(), goal_robot_frame, self._base_planner,
+        plan = plan_base(self.local_map(ranges), goal_robot_frame, self._base_planner,
                          self.env.robot.spec.base_radius, rng, goal_mode=self.config.base_goal)
         if not plan.success:
             return SubgoalResult("base", planner, False, plan.reason, plan.planning_time_s)
