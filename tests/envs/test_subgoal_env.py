@@ -417,3 +417,15 @@ def test_subgoal_feedback_observes_the_previous_action_and_whether_it_executed_n
     np.testing.assert_array_equal(obs["last_subgoal"], np.zeros(9, dtype=np.float32))
     env.close()
     assert "last_subgoal" not in RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64).observation_space.spaces
+
+
+def test_base_subgoals_plan_on_the_observation_scan_until_the_robot_moves():
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=64)
+    obs, _ = env.reset(seed=0)
+    np.testing.assert_allclose(obs["scan"] * env.lidar.max_range, env.last_scan, rtol=1e-6)
+    assert env.observed_scan() is env.last_scan  # nothing moved: the observation's rays are reused
+    x, y, yaw = env.robot.base_pose()
+    env.robot.set_base_pose(x, y, yaw + 0.5)
+    fresh = env.observed_scan()
+    assert fresh is not env.last_scan and not np.allclose(fresh, env.last_scan)
+    env.close()
