@@ -58,8 +58,9 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
     for name, value in variables.items():  # e.g. SAC's log_ent_coef, as BaseAlgorithm.load restores them
         recursive_setattr(model, f"{name}.data", value.data)
     source = read_config(Path(source_run) / "config.yaml")
+    state = checkpoint_state(folder)
     record = {"run": str(Path(source_run).resolve()), "checkpoint": str(Path(folder).resolve()),
-              "checkpoint_episode": checkpoint_state(folder).get("episodes"),
+              "checkpoint_episode": state.get("episodes"), **_budget_before(state, read_init_from(source_run)),
               "task": source.task, "algo": source.algo, "robot": source.env.robot, "scene": source.env.scene,
               "second_scene": source.env.second_scene, "replay": None, "replay_transitions": 0}
     if with_replay:
@@ -73,6 +74,17 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
         resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
         record.update(replay=str(Path(replay).resolve()), replay_transitions=int(model.replay_buffer.size()))
     return record
+
+
+def _budget_before(state: dict, source_init: dict | None) -> dict[str, float]:
+    """What the weights had cost when loaded: the source checkpoint's episodes, CPU and wall
+    seconds, plus whatever its own run had been initialised from (``initial_*`` of its log)."""
+    earlier = source_init or {}
+    return {f"initial_{key}": float(state.get(key, 0.0)) + float(earlier.get(f"initial_{key}", 0.0))
+            for key in INITIAL_BUDGET_KEYS}
+
+
+INITIAL_BUDGET_KEYS = ("episodes", "cpu_time_s", "wall_time_s")
 
 
 def read_init_from(run_dir: Path) -> dict | None:

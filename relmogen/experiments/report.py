@@ -26,6 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from relmogen.experiments.config import read_config  # noqa: E402
+from relmogen.experiments.finetune import read_init_from  # noqa: E402
 from relmogen.experiments.task_catalogue import task_evaluation_keys  # noqa: E402
 
 TABLE_METRICS = ("success_rate", "spl", "closed_5", "closed_10")  # every evaluation has them, 0 if not the task's
@@ -99,7 +100,7 @@ def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
             "eval_every": config.run.eval_every_episodes,
             "all_evals": [read_evaluation(p) for p in sorted((run_dir / "eval").glob("*.json"))],
             "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
-            "periodic": read_periodic_evaluations(run_dir),
+            "periodic": read_periodic_evaluations(run_dir), "init": read_init_from(run_dir) or {},
         })
     return groups
 
@@ -122,9 +123,13 @@ def episodes_to_success_rate(periodic: list[dict], threshold: float) -> int | No
 
 
 def _milestones(runs: list[dict]) -> dict[str, list[int | None]]:
-    """Per milestone of ``SR_MILESTONES`` (key ``"0.5"``...), each seed's ``episodes_to_success_rate``."""
-    return {f"{threshold:g}": [episodes_to_success_rate(run.get("periodic", []), threshold) for run in runs]
-            for threshold in SR_MILESTONES}
+    """Per milestone of ``SR_MILESTONES`` (key ``"0.5"``...), each seed's ``episodes_to_success_rate``,
+    counting the episodes behind a fine-tuned run's initial weights."""
+    def reached(run: dict, threshold: float) -> int | None:
+        episodes = episodes_to_success_rate(run.get("periodic", []), threshold)
+        return None if episodes is None else episodes + int(run.get("init", {}).get("initial_episodes", 0))
+
+    return {f"{threshold:g}": [reached(run, threshold) for run in runs] for threshold in SR_MILESTONES}
 
 
 def _state(run_dir: Path) -> dict:
@@ -190,12 +195,20 @@ def _metric_summaries(task: str, evaluations: list[dict]) -> dict[str, dict | No
 
 def _budget(runs: list[dict]) -> dict[str, float | None]:
     """Means over the runs of the training budget spent: episodes, wall-clock hours and CPU hours
-    (trainer plus environment workers; None unless every run logged it)."""
-    episodes = [run["state"].get("episodes", len(run["curve"]["episode"])) for run in runs]
-    wall_hours = [run["state"].get("wall_time_s", 0.0) / 3600 for run in runs]
-    cpu_hours = [run["state"]["cpu_time_s"] / 3600 for run in runs if "cpu_time_s" in run["state"]]
+    (trainer plus environment workers; None unless every run logged it). A run started with
+    ``--init-from`` counts what its initial weights cost too; ``initial_episodes`` and
+    ``initial_cpu_hours`` give that part alone (0 for runs from scratch)."""
+    def initial(run: dict, key: str) -> float:
+        return float(run["init"].get(f"initial_{key}", 0.0))
+
+    episodes = [run["state"].get("episodes", len(run["curve"]["episode"])) + initial(run, "episodes") for run in runs]
+    wall_hours = [(run["state"].get("wall_time_s", 0.0) + initial(run, "wall_time_s")) / 3600 for run in runs]
+    cpu_hours = [(run["state"]["cpu_time_s"] + initial(run, "cpu_time_s")) / 3600
+                 for run in runs if "cpu_time_s" in run["state"]]
     return {"episodes": float(np.mean(episodes)), "wall_hours": float(np.mean(wall_hours)),
-            "cpu_hours": float(np.mean(cpu_hours)) if len(cpu_hours) == len(runs) else None}
+            "cpu_hours": float(np.mean(cpu_hours)) if len(cpu_hours) == len(runs) else None,
+            "initial_episodes": float(np.mean([initial(run, "episodes") for run in runs])),
+            "initial_cpu_hours": float(np.mean([initial(run, "cpu_time_s") for run in runs])) / 3600}
 
 
 def _row(task: str, algo: str, reference: bool, runs: list[dict], evaluations: list[dict], setting: dict) -> dict:

@@ -3,6 +3,7 @@ training environments in another scene), ``env.robot`` / ``--robot`` (tiny prese
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -61,6 +62,8 @@ def test_init_from_copies_the_weights_and_records_the_source(tmp_path, source_ru
     assert record["checkpoint"] == str(latest_checkpoint(source_run).resolve())
     assert record["checkpoint_episode"] == 2 and record["robot"] == "fetch"
     assert record["replay"] is None and record["replay_transitions"] == 0
+    source_state = json.loads((latest_checkpoint(source_run) / "state.json").read_text())
+    assert record["initial_episodes"] == 2 and record["initial_cpu_time_s"] == source_state["cpu_time_s"] > 0
     # without --init-replay the new run's replay holds only its own transitions (as many as a run
     # from scratch: before learning_starts both act at random, from the same seed)
     assert _replay_size(latest_replay(run)) == _replay_size(latest_replay(fresh))

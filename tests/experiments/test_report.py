@@ -2,6 +2,7 @@
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -127,6 +128,18 @@ def test_table_json_has_a_typed_row_per_table_md_row(tmp_path):
     assert reference["relmogen-r"]["policy"] == "deterministic" and reference["relmogen-r"]["arm_collision"] is True
     swap = next(row for row in rows if row["base_planner"] == "lazy_prm")
     assert (swap["seeds"], swap["closed_5"], swap["success_rate"]["mean"]) == (1, None, 0.2)
+
+
+def test_a_fine_tuned_run_counts_the_budget_of_its_initial_weights(tmp_path):
+    run = fake_run(tmp_path, "relmogen-r", 0, 0.9, 0.5)  # 100 episodes, 0.25 CPU h
+    (run / "eval_during_training.jsonl").write_text(json.dumps({"episode": 40, "success_rate": 0.6}) + "\n")
+    (run / "init_from.json").write_text(json.dumps({"initial_episodes": 1000.0, "initial_cpu_time_s": 1800.0,
+                                                     "initial_wall_time_s": 3600.0}))
+    rows = json.loads(Path(write_report([run], tmp_path / "report")["json"]).read_text())["rows"]
+    reference = next(row for row in rows if row["reference"])
+    assert reference["episodes"] == 1100 and reference["cpu_hours"] == pytest.approx(0.75)
+    assert reference["initial_episodes"] == 1000 and reference["initial_cpu_hours"] == pytest.approx(0.5)
+    assert reference["episodes_to_success_rate"]["0.5"] == [1040]
 
 
 def fake_report(folder, algo, overrides=()):
