@@ -181,7 +181,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from relmogen.experiments.evaluate import evaluate_path
 
     result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
-                           args.arm_collision == "on", args.scene, args.device, quiet=args.json,
+                           args.arm_collision == "on", args.scene, args.device,
                            stochastic=args.stochastic, skip_no_ops=args.skip_no_ops, checkpoint=args.checkpoint,
                            video=Path(args.video) if args.video else None, robot=args.robot)
     _print_metrics(result, args.json, f"evaluation of {args.path}")

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from rich.console import Console
 from rich.progress import Progress
 
 from relmogen.envs.relmogen_env import RelmogenEnv, view_unchanged
@@ -100,7 +101,8 @@ def run_episodes(env: RelmogenEnv, act: Policy, episodes: int, seed: int = 0, qu
     """``episodes`` episodes with seeds ``seed, seed + 1, ...``; ``record_first`` keeps the
     video frames of the first one, ``first_recorder`` records it with that recorder instead."""
     records = []
-    with Progress(disable=quiet, transient=True) as progress:
+    # on stderr, so that a JSON result on stdout stays parseable while the bar runs
+    with Progress(disable=quiet, transient=True, console=Console(stderr=True)) as progress:
         bar = progress.add_task(description, total=episodes)
         for episode in range(episodes):
             first = episode == 0

@@ -291,7 +291,8 @@ def test_eval_picks_the_checkpoint_names_it_and_its_seeds_and_records_a_video(pr
     best, latest = best_checkpoint(run_dir), latest_checkpoint(run_dir)
     assert main(["eval", str(run_dir), "--checkpoint", "best", "--episodes", "1", "--seed", "7",
                  "--video", str(tmp_path / "out.gif"), "--json"]) == 0
-    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    stdout = capsys.readouterr().out.strip()
+    result = json.loads(stdout)  # stdout is the JSON alone (the progress bar goes to stderr)
     assert (result["checkpoint"], result["checkpoint_episode"]) == (best.name, int(best.name.split("_")[1]))
     assert (result["eval_seed"], result["episodes"], result["training_seed"]) == (7, 1, 0) and "seed" not in result
     frames = imageio.mimread(result["video"])
