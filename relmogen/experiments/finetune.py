@@ -72,7 +72,8 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
             raise ValueError(f"--init-replay: the replay buffer of {source_run} holds {model.replay_buffer.n_envs} "
                              f"environments' columns, this run has env.n_envs={config.env.n_envs}; they must match")
         resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
-        record.update(replay=str(Path(replay).resolve()), replay_transitions=int(model.replay_buffer.size()))
+        buffer = model.replay_buffer  # size() counts rows of n_envs transitions
+        record.update(replay=str(Path(replay).resolve()), replay_transitions=int(buffer.size() * buffer.n_envs))
     return record
 
 

@@ -46,7 +46,14 @@ def _assert_same_weights(a: dict, b: dict) -> None:
 def _replay_size(path: Path) -> int:
     from stable_baselines3.common.save_util import load_from_pkl
 
-    return int(load_from_pkl(path).size())
+    return int(load_from_pkl(path).size())  # rows of n_envs transitions
+
+
+def _replay_transitions(path: Path) -> int:
+    from stable_baselines3.common.save_util import load_from_pkl
+
+    buffer = load_from_pkl(path)
+    return int(buffer.size() * buffer.n_envs)
 
 
 def test_init_from_copies_the_weights_and_records_the_source(tmp_path, source_run):
@@ -70,7 +77,7 @@ def test_init_from_copies_the_weights_and_records_the_source(tmp_path, source_ru
 
 
 def test_init_replay_loads_the_source_replay_buffer(tmp_path, source_run):
-    source_transitions = _replay_size(latest_replay(source_run))
+    source_rows, source_transitions = _replay_size(latest_replay(source_run)), _replay_transitions(latest_replay(source_run))
     run = Path(main_train(tmp_path, "--init-from", str(latest_checkpoint(source_run)), "--init-replay",
                           "--set", NO_UPDATES))
     record = read_init_from(run)
@@ -78,7 +85,7 @@ def test_init_replay_loads_the_source_replay_buffer(tmp_path, source_run):
     assert record["replay_transitions"] == source_transitions > 0
     own = _replay_size(latest_replay(train(_tiny(overrides=[NO_UPDATES]), tmp_path / "fresh", quiet=True)))
     capacity = read_config(run / "config.yaml").algo_params.buffer_size
-    assert _replay_size(latest_replay(run)) == min(source_transitions + own, capacity)
+    assert _replay_size(latest_replay(run)) == min(source_rows + own, capacity)
     _assert_same_weights(_weights(load_policy(run)[0]), _weights(load_policy(source_run)[0]))
 
 
