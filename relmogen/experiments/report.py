@@ -160,7 +160,7 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
     return {key: np.array([_number(r.get(key)) for r in rows]) for key in CURVE_KEYS}
 
 
-SETTING_KEYS = ("scene", "base_planner", "arm_planner", "arm_collision", "policy", "checkpoint", "eval_episodes")
+SETTING_KEYS = ("scene", "robot", "base_planner", "arm_planner", "arm_collision", "policy", "checkpoint", "eval_episodes")
 SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction",
                    "repeated_subgoal_rate", "unchanged_view_rate", "oracle_agreement")
 ROW_METRICS = TABLE_METRICS + tuple(metric for metric in SETTING_METRICS if metric not in TABLE_METRICS)
@@ -169,7 +169,8 @@ TABLE_JSON_SCHEMA_VERSION = 1
 
 def evaluation_setting(evaluation: dict) -> dict:
     """The conditions an evaluation ran under, keyed as ``SETTING_KEYS``; None where it records none."""
-    return {"scene": evaluation.get("scene"), "base_planner": evaluation.get("base_planner"),
+    return {"scene": evaluation.get("scene"), "robot": evaluation.get("robot"),
+            "base_planner": evaluation.get("base_planner"),
             "arm_planner": evaluation.get("arm_planner"), "arm_collision": evaluation.get("arm_collision", True),
             "policy": policy_of(evaluation), "checkpoint": checkpoint_of(evaluation),
             "eval_episodes": evaluation.get("episodes")}

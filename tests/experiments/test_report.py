@@ -78,6 +78,10 @@ def test_every_evaluation_setting_gets_a_row(tmp_path):
     table = write_report(runs, tmp_path / "report")["markdown"]
     swap = next(line for line in table.splitlines() if "lazy_prm" in line)
     assert "| 2 | 0.30 / 0.10 / 0.40 |" in swap
+    on_movo = json.loads((runs[0] / "eval" / "swap.json").read_text()) | {"robot": "movo", "base_planner": "rrt_connect"}
+    (runs[0] / "eval" / "movo.json").write_text(json.dumps(on_movo))
+    rows = json.loads(Path(write_report(runs, tmp_path / "report")["json"]).read_text())["rows"]
+    assert [row["robot"] for row in rows if row["base_planner"] == "rrt_connect" and row["eval_episodes"] == 50] == ["movo"]
 
 
 def test_curves_show_items_closed_for_tasks_that_count_them(tmp_path):
