@@ -43,17 +43,12 @@ def _assert_same_weights(a: dict, b: dict) -> None:
     assert all(th.equal(a[key], b[key]) for key in a), [key for key in a if not th.equal(a[key], b[key])]
 
 
-def _replay_size(path: Path) -> int:
-    from stable_baselines3.common.save_util import load_from_pkl
-
-    return int(load_from_pkl(path).size())  # rows of n_envs transitions
-
-
-def _replay_transitions(path: Path) -> int:
+def _replay_size(path: Path, transitions: bool = False) -> int:
+    """Rows of n_envs transitions, or with ``transitions`` the transitions themselves."""
     from stable_baselines3.common.save_util import load_from_pkl
 
     buffer = load_from_pkl(path)
-    return int(buffer.size() * buffer.n_envs)
+    return int(buffer.size() * (buffer.n_envs if transitions else 1))
 
 
 def test_init_from_copies_the_weights_and_records_the_source(tmp_path, source_run):
@@ -77,7 +72,8 @@ def test_init_from_copies_the_weights_and_records_the_source(tmp_path, source_ru
 
 
 def test_init_replay_loads_the_source_replay_buffer(tmp_path, source_run):
-    source_rows, source_transitions = _replay_size(latest_replay(source_run)), _replay_transitions(latest_replay(source_run))
+    source_rows = _replay_size(latest_replay(source_run))
+    source_transitions = _replay_size(latest_replay(source_run), transitions=True)
     run = Path(main_train(tmp_path, "--init-from", str(latest_checkpoint(source_run)), "--init-replay",
                           "--set", NO_UPDATES))
     record = read_init_from(run)
