@@ -22,6 +22,7 @@
     relmogen export RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] --out DIR
     relmogen report RUN_DIRS... --out DIR
     relmogen report --table1 DIR
+    relmogen report --table2 DIR --out OUT
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
     relmogen viz subgoals RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
                           [--stochastic] [--robot NAME] [--out PNG]
@@ -240,14 +241,21 @@ def cmd_viz_exploration(args: argparse.Namespace) -> int:
 def cmd_report(args: argparse.Namespace) -> int:
     from relmogen.experiments.report import write_report
     from relmogen.experiments.table1 import write_table1
+    from relmogen.experiments.table2 import write_table2
 
     if args.table1 is not None:
-        if args.runs or args.out is not None:
-            raise ValueError("report --table1 DIR takes neither RUN_DIRs nor --out")
+        if args.runs or args.out is not None or args.table2 is not None:
+            raise ValueError("report --table1 DIR takes neither RUN_DIRs, --table2 nor --out")
         print(write_table1(Path(args.table1)).read_text())
         return 0
+    if args.table2 is not None:
+        if args.runs or args.out is None:
+            raise ValueError("report --table2 DIR needs --out OUT and no RUN_DIRs")
+        write_table2(Path(args.table2), Path(args.out))
+        print((Path(args.out) / "table.md").read_text())
+        return 0
     if not args.runs or args.out is None:
-        raise ValueError("report needs RUN_DIR... --out DIR, or --table1 DIR")
+        raise ValueError("report needs RUN_DIR... --out DIR, --table1 DIR, or --table2 DIR --out OUT")
     result = write_report([Path(p) for p in args.runs], Path(args.out))
     print(result.pop("markdown"))
     print(json.dumps(result))
@@ -507,6 +515,8 @@ def _add_report(sub) -> None:
     report.add_argument("--out", help="where table.md, table.json and curves.png go")
     report.add_argument("--table1", metavar="DIR", help="write DIR/README.md, the paper's Table I beside ours, "
                                                         "from DIR/*/table.json (one report per task and algorithm)")
+    report.add_argument("--table2", metavar="DIR", help="with --out OUT: the paper's Tables II / A.4 (planner swap) and "
+                                                        "A.2 (arm collision checking) beside ours, from DIR/*/table.json")
     report.set_defaults(func=cmd_report)
 
 
