@@ -31,6 +31,7 @@ from relmogen.motion_generation.push import (
     base_held_still,
     follow_joint_targets,
     make_push_line,
+    physics_sub_steps,
     step_physics,
 )
 from relmogen.robots.robot import BASE_LINK, Robot
@@ -67,6 +68,10 @@ class ArmConfig:
     push_ik_iterations: int = 10  # per push point, seeded from the previous point
     push_steps_per_point: int = 4  # physics steps per push point (25 points -> 2.5 s)
     push_settle_steps: int = 4  # hold the last target before measuring the pushed distance
+    # Physics sub-steps during the push (None: the world's 2, which keep joint-velocity driving
+    # straight; the base is pinned here). 1 halves the push's physics: random PushDoorNav
+    # subgoals 21.7 -> 17.1 ms of CPU, oracle figures in results/oracles/push_physics.md
+    push_sub_steps: int | None = 1
     push_force_scale: float = 1.0  # multiple of each joint's URDF effort
     push_position_gain: float = 0.3
     base_hold_force: float = 1e5  # N, the constraint pinning the base during the push
@@ -356,7 +361,7 @@ class ArmMotion:
         start_q = robot.joint_state_vector()[0]
         targets = self.ik_solver.track_line(line.points(cfg.push_points), start_q, cfg.push_ik_iterations)
         forces = robot.joint_max_force[robot.arm_joint_indices] * cfg.push_force_scale
-        with base_held_still(self.client, robot, cfg.base_hold_force):
+        with base_held_still(self.client, robot, cfg.base_hold_force), physics_sub_steps(self.client, cfg.push_sub_steps):
             steps = follow_joint_targets(self.client, robot, targets, forces, cfg.push_position_gain,
                                          cfg.push_steps_per_point, on_physics_steps)
             steps += step_physics(self.client, cfg.push_settle_steps, on_physics_steps)

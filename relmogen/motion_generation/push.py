@@ -61,6 +61,20 @@ def base_held_still(client: int, robot: Robot, max_force: float) -> Iterator[Non
         p.resetBaseVelocity(body, [0, 0, 0], [0, 0, 0], physicsClientId=client)
 
 
+@contextlib.contextmanager
+def physics_sub_steps(client: int, sub_steps: int | None) -> Iterator[None]:
+    """Step the world with ``sub_steps`` sub-steps inside the block (None: leave it as it is)."""
+    if sub_steps is None:
+        yield
+        return
+    saved = p.getPhysicsEngineParameters(physicsClientId=client)["numSubSteps"]
+    p.setPhysicsEngineParameter(numSubSteps=int(sub_steps), physicsClientId=client)
+    try:
+        yield
+    finally:
+        p.setPhysicsEngineParameter(numSubSteps=saved, physicsClientId=client)
+
+
 def follow_joint_targets(client: int, robot: Robot, targets: np.ndarray, forces: np.ndarray,
                          position_gain: float, steps_per_target: int,
                          on_physics_steps: PhysicsCallback | None = None) -> int:
