@@ -70,7 +70,7 @@ class ArmConfig:
     push_settle_steps: int = 4  # hold the last target before measuring the pushed distance
     # Physics sub-steps during the push (None: the world's 2, which keep joint-velocity driving
     # straight; the base is pinned here). 1 halves the push's physics: random PushDoorNav
-    # subgoals 21.7 -> 17.1 ms of CPU, oracle figures in results/oracles/push_physics.md
+    # subgoals 20.7 -> 17.3 ms of CPU, every oracle figure within noise (results/oracles/push_physics.md)
     push_sub_steps: int | None = 1
     push_force_scale: float = 1.0  # multiple of each joint's URDF effort
     push_position_gain: float = 0.3
