@@ -51,20 +51,26 @@ folder>` rewrites this file."""
 ASSISTED_TITLE = "## Assisted runs: demonstrations or oracle labels; not comparable to the paper's reward-only numbers"
 
 
-def read_rows(folder: Path) -> list[dict]:
-    """The reference rows of every ``folder/*/table.json``, each with its folder's name as ``source``."""
+def read_tables(folder: Path) -> list[tuple[str, dict]]:
+    """``(folder name, table)`` of every ``folder/*/table.json``, each checked for today's schema."""
     paths = sorted(Path(folder).glob("*/table.json"))
     if not paths:
         raise ValueError(f"no */table.json under {folder} "
                          f"(write them with `relmogen report RUN_DIR... --out {folder}/<Task>__<algo>`)")
-    rows = []
+    tables = []
     for path in paths:
         table = json.loads(path.read_text())
         if table.get("schema_version") != TABLE_JSON_SCHEMA_VERSION:
             raise ValueError(f"{path}: schema_version {table.get('schema_version')}, "
                              f"expected {TABLE_JSON_SCHEMA_VERSION}")
-        rows += [dict(row, source=path.parent.name) for row in table["rows"] if row["reference"]]
-    return rows
+        tables.append((path.parent.name, table))
+    return tables
+
+
+def read_rows(folder: Path) -> list[dict]:
+    """The reference rows of every ``folder/*/table.json``, each with its folder's name as ``source``."""
+    return [dict(row, source=source) for source, table in read_tables(folder) for row in table["rows"]
+            if row["reference"]]
 
 
 def is_paper_setting(row: dict) -> bool:

@@ -16,7 +16,7 @@ import json
 from pathlib import Path
 
 from relmogen.experiments.report import TABLE_JSON_SCHEMA_VERSION, markdown_grid, summary_cell, training_of
-from relmogen.experiments.table1 import metric_of, paper_order, read_rows
+from relmogen.experiments.table1 import metric_of, paper_order, read_tables
 from relmogen.tasks import task_class
 
 RELMOGEN = ("relmogen-r", "relmogen-d")
@@ -50,13 +50,9 @@ task has no collision row."""
 
 def evaluated_rows(folder: Path) -> list[dict]:
     """The ReLMoGen rows of ``folder/*/table.json`` in the planner and collision tables' setting."""
-    rows = []
-    for path in sorted(Path(folder).glob("*/table.json")):
-        table = json.loads(path.read_text())
-        rows += [_with_defaults(row, path.parent.name) for row in table["rows"]
-                 if row["algorithm"] in RELMOGEN and row["policy"] == "deterministic"
-                 and row.get("robot") in (None, "fetch") and (row.get("scene") or "_A").endswith("_A")]
-    return rows
+    return [_with_defaults(row, source) for source, table in read_tables(folder) for row in table["rows"]
+            if row["algorithm"] in RELMOGEN and row["policy"] == "deterministic"
+            and row.get("robot") in (None, "fetch") and (row.get("scene") or "_A").endswith("_A")]
 
 
 def _with_defaults(row: dict, source: str) -> dict:
@@ -67,9 +63,13 @@ def _with_defaults(row: dict, source: str) -> dict:
 
 def _setting(row: dict) -> tuple[str | None, str | None, bool | None]:
     """(base planner, arm planner, arm collision checking), None for what the task's subgoals never use."""
-    parts = task_class(row["task"]).subgoal_parts
-    return (row["base_planner"] if "base" in parts else None, row["arm_planner"] if "arm" in parts else None,
-            bool(row["arm_collision"]) if "arm" in parts else None)
+    task = row["task"]
+    checking = bool(row["arm_collision"]) if _has_arm(task) else None
+    return (*_used((row["base_planner"], row["arm_planner"]), task), checking)
+
+
+def _has_arm(task: str) -> bool:
+    return "arm" in task_class(task).subgoal_parts
 
 
 def _groups(rows: list[dict]) -> dict[str, dict[tuple, dict]]:
@@ -81,6 +81,7 @@ def _groups(rows: list[dict]) -> dict[str, dict[tuple, dict]]:
 
 
 def _used(pair: tuple[str, str], task: str) -> tuple[str | None, str | None]:
+    """The (base, arm) planner pair with None for a part the task's subgoals never use."""
     parts = task_class(task).subgoal_parts
     return (pair[0] if "base" in parts else None, pair[1] if "arm" in parts else None)
 
@@ -112,22 +113,23 @@ def table2_entries(rows: list[dict]) -> list[dict]:
     for source, settings in sorted(_groups(rows).items(), key=lambda item: paper_order(next(iter(item[1].values())))):
         first = next(iter(settings.values()))
         task, algo = first["task"], first["algorithm"]
-        checking = True if "arm" in task_class(task).subgoal_parts else None
-        reference = settings.get((*_used(TRAINING_PLANNERS, task), checking))
+        checking = True if _has_arm(task) else None
+        training = _used(TRAINING_PLANNERS, task)
+        reference = settings.get((*training, checking))
         if reference is None:
             continue
         paper_swap = PAPER_PLANNER_SWAP.get(task, {}) if algo == "relmogen-r" else {}
         for pair in dict.fromkeys(_used(pair, task) for pair in PLANNER_PAIRS):  # distinct, in order
-            base = pair != _used(TRAINING_PLANNERS, task)  # the first row is the base of the changes
+            base = pair != training  # the first row is the base of the changes
             entries.append(_entry("planner_swap", settings.get((*pair, checking)), reference if base else None,
                                   (*pair, checking), first, _paper_swap(paper_swap, pair),
-                                  _paper_swap(paper_swap, _used(TRAINING_PLANNERS, task)) if base else None))
+                                  _paper_swap(paper_swap, training) if base else None))
         if checking is None:
             continue
         paper_off, paper_on = PAPER_ARM_COLLISION.get(algo, {}).get(task, (None, None))
-        off = settings.get((*TRAINING_PLANNERS, False))
-        entries.append(_entry("arm_collision", off, None, (*TRAINING_PLANNERS, False), first, paper_off, None))
-        entries.append(_entry("arm_collision", reference, off, (*TRAINING_PLANNERS, True), first, paper_on, paper_off))
+        off = settings.get((*training, False))
+        entries.append(_entry("arm_collision", off, None, (*training, False), first, paper_off, None))
+        entries.append(_entry("arm_collision", reference, off, (*training, True), first, paper_on, paper_off))
     return entries
 
 
@@ -173,7 +175,6 @@ def table2_markdown(entries: list[dict]) -> str:
 
 def write_table2(folder: Path, out: Path) -> dict:
     """Writes ``out/table.md`` and ``out/table.json`` from ``folder/*/table.json``; returns the json."""
-    read_rows(folder)  # the same checks as Table I: reports exist, with today's schema
     entries = table2_entries(evaluated_rows(folder))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
