@@ -37,8 +37,9 @@ class EnvConfig(_Strict):
     # relmogen-d's Q-map side; None: image_size / 4 (the paper's 32 at 128 px). 2, 4 or 8 times it = image_size
     qmap_size: int | None = Field(None, ge=1)
     # a base subgoal whose goal pose is in collision: "strict" is a no-op (the paper's),
-    # "nearest_free" drives to the nearest free pose toward it (ours; base_planner.py)
-    base_goal: Literal["strict", "nearest_free"] = "strict"
+    # "nearest_free" drives to the nearest free pose toward it, "nearest_reachable" to the nearest
+    # pose toward it that is free and connected to the robot on the local map (ours; base_planner.py)
+    base_goal: Literal["strict", "nearest_free", "nearest_reachable"] = "strict"
     noop_cost: float = Field(0.0, ge=0)  # subgoal controls: reward -cost for a subgoal that executed nothing (ours)
     # relmogen-r: observe the previous subgoal and whether it executed nothing (ours; subgoal_controls.py)
     subgoal_feedback: bool = False

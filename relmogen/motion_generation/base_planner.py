@@ -18,7 +18,9 @@ Compared with the original ReLMoGen base planner:
   ``reason`` "goal outside local map" / "goal in collision" (``goal_mode="strict"``, the
   paper's behaviour). ``goal_mode="nearest_free"`` (ours) instead moves a goal in collision
   back along the straight line from the robot to the nearest free pose, as a navigation
-  stack's goal tolerance does, and plans there;
+  stack's goal tolerance does, and plans there; ``goal_mode="nearest_reachable"`` (ours) moves
+  it back along that line to the nearest pose that is free *and* connected to the robot, so that
+  a goal behind a wall or outside a pocket the robot stands in still moves the robot toward it;
 * a goal outside the start's 8-connected region of cells the disc may occupy fails before any
   search with "goal not connected to the robot on the local map" (no plan can exist: every step
   moves at most one cell). Random PushDoorNav subgoals: 26.8 -> 22.6 ms of CPU each, the time
@@ -30,6 +32,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt, label
@@ -50,7 +53,7 @@ FETCH_FOOTPRINT_RADIUS = 0.279
 SELF_BLIND_MARGIN = 0.3
 BASE_STEP_M = 0.05
 BASE_STEP_RAD = 0.05
-GOAL_MODES = ("strict", "nearest_free")
+GOAL_MODES = ("strict", "nearest_free", "nearest_reachable")
 # OMPL backends are time-limited; the base gets a shorter budget than the arm.
 BASE_PLANNER_OVERRIDES: dict[str, dict] = {
     "ompl_rrtconnect": {"time_limit_s": 0.5},
@@ -260,11 +263,17 @@ def plan_base(
         return result(None, "goal outside local map")
     checker = FootprintChecker(local_map, footprint_radius)
     note = ""
-    if checker.in_collision(goal):
+    if goal_mode == "nearest_reachable":
+        reachable = lambda q: not checker.in_collision(q) and checker.connected_to_start(q)  # noqa: E731
+        if not reachable(goal):
+            requested = float(np.hypot(goal[0], goal[1]))
+            goal = nearest_goal_on_line(goal, reachable)
+            note = f"goal unreachable, moved {requested - float(np.hypot(goal[0], goal[1])):.2f} m back; "
+    elif checker.in_collision(goal):
         if goal_mode == "strict":
             return result(None, "goal in collision")
         requested = float(np.hypot(goal[0], goal[1]))
-        goal = nearest_free_goal(goal, checker)
+        goal = nearest_goal_on_line(goal, lambda q: not checker.in_collision(q))
         note = f"goal in collision, moved {requested - float(np.hypot(goal[0], goal[1])):.2f} m back; "
     if np.hypot(goal[0], goal[1]) < 1e-6:
         return result(base_extend_fn()(np.zeros(3), goal), note + "rotation in place")
@@ -274,13 +283,13 @@ def plan_base(
     return result(plan.path, note + plan.reason)
 
 
-def nearest_free_goal(goal: np.ndarray, checker: FootprintChecker) -> np.ndarray:
-    """The free pose nearest ``goal`` on the straight line from the robot (0, 0) to it, with
-    the goal's yaw; the start itself (a rotation in place) when the whole line is blocked."""
+def nearest_goal_on_line(goal: np.ndarray, accept: Callable[[np.ndarray], bool]) -> np.ndarray:
+    """The accepted pose nearest ``goal`` on the straight line from the robot (0, 0) to it, with
+    the goal's yaw; the start itself (a rotation in place) when no pose on the line is accepted."""
     distance = float(np.hypot(goal[0], goal[1]))
     for along in np.arange(distance, 0.0, -BASE_STEP_M):
         candidate = np.array([goal[0] * along / distance, goal[1] * along / distance, goal[2]])
-        if not checker.in_collision(candidate):
+        if accept(candidate):
             return candidate
     return np.array([0.0, 0.0, goal[2]])
 

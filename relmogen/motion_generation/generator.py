@@ -3,7 +3,7 @@
 Base subgoal: (x, y, yaw) in the robot frame. The MG scans, builds the 5 m local occupancy
 map, plans with the selected backend, then moves the base along the path kinematically (as
 the original did), checking every waypoint against the FULL simulation and stopping before a
-collision. Arm subgoal: a 3D point plus a horizontal push vector, handed to ``ArmMotion``.
+collision (a contact the robot started in may persist, no deeper, so that it can back away). Arm subgoal: a 3D point plus a horizontal push vector, handed to ``ArmMotion``.
 
 Planners are selected by name and can be swapped at any time (``set_planners``): the policy
 never sees which one runs.
@@ -20,9 +20,11 @@ import pybullet as p
 from relmogen.motion_generation.arm import ArmConfig, ArmMotion
 from relmogen.motion_generation.base_planner import GOAL_MODES, make_base_planner, plan_base
 from relmogen.motion_generation.planners import BACKENDS
+from relmogen.simulation.contacts import Collision
 from relmogen.simulation.frames import to_local
 from relmogen.simulation.occupancy import LocalMap, build_local_map
 
+DEPTH_TOLERANCE_M = 0.002  # contact depth a waypoint may add to a contact present at the start
 BASE_SPEED = 0.5  # m/s while executing a base path (Fetch tops out at 1.0 m/s)
 BASE_TURN_RATE = 1.0  # rad/s
 ARM_JOINT_SPEED = 1.0  # rad/s of the fastest-moving joint while approaching an arm subgoal
@@ -35,7 +37,7 @@ class MotionGeneratorConfig:
     base_planner: str = "rrt_connect"
     arm_planner: str = "rrt_connect"
     arm_collision_checking: bool = True  # the paper trains with False, evaluates with True
-    base_goal: str = "strict"  # a base goal in collision: "strict" fails (paper), "nearest_free" (ours)
+    base_goal: str = "strict"  # a base goal in collision: "strict" fails (paper); GOAL_MODES (ours)
     map_size_m: float = 5.0
     map_resolution: float = 0.05
     arm: ArmConfig = field(default_factory=ArmConfig)
@@ -133,14 +135,18 @@ class MotionGenerator:
         return SubgoalResult("base", planner, True, reason, plan.planning_time_s, driven, sim_time)
 
     def _follow(self, path: np.ndarray, tick: Tick) -> tuple[float, float, int | None]:
-        """Move the base through ``path`` kinematically; stop at the last collision-free waypoint."""
+        """Move the base through ``path`` kinematically; stop at the last waypoint that touches
+        nothing new and gets no deeper into what the robot already touched where it started (a
+        door leaf pushed against the base must not pin the robot there for the whole episode)."""
         robot, client = self.env.robot, self.env.world.client
         driven = sim_time = 0.0
         previous = np.asarray(robot.base_pose(), dtype=np.float64)
+        p.performCollisionDetection(physicsClientId=client)
+        touching_at_start = contact_depths(self.env.collisions())
         for index, waypoint in enumerate(path[1:], start=1):
             robot.set_base_pose(*waypoint)
             p.performCollisionDetection(physicsClientId=client)
-            if self.env.collisions():
+            if collides_beyond(self.env.collisions(), touching_at_start):
                 robot.set_base_pose(*previous)
                 return driven, sim_time, index
             step = float(np.hypot(*(waypoint[:2] - previous[:2])))
@@ -166,3 +172,18 @@ class MotionGenerator:
                                          on_reached=reached)
         return SubgoalResult("arm", self.config.arm_planner, result.success, result.reason,
                              result.planning_time_s, 0.0, approach["time"] + result.simulated_time_s)
+
+
+def contact_depths(collisions: list[Collision]) -> dict[tuple[int, int], float]:
+    """The deepest contact distance (m, <= 0) per touched (body, link)."""
+    depths: dict[tuple[int, int], float] = {}
+    for collision in collisions:
+        key = (collision.other_body, collision.other_link)
+        depths[key] = min(depths.get(key, 0.0), collision.distance)
+    return depths
+
+
+def collides_beyond(collisions: list[Collision], allowed: dict[tuple[int, int], float]) -> bool:
+    """Whether ``collisions`` touch a (body, link) not in ``allowed`` or go deeper into one than
+    its allowed depth (``contact_depths`` of the start) by more than ``DEPTH_TOLERANCE_M``."""
+    return any(depth < allowed.get(key, np.inf) - DEPTH_TOLERANCE_M for key, depth in contact_depths(collisions).items())

@@ -12,6 +12,7 @@ class Collision:
     robot_link: str
     other_body: int
     other_link: int
+    distance: float = 0.0  # Bullet's contact distance: 0 touching, negative the penetration depth (m)
 
     def describe(self, client: int) -> str:
         name = p.getBodyInfo(self.other_body, physicsClientId=client)[1].decode() or f"body {self.other_body}"
@@ -38,7 +39,7 @@ def robot_collisions(
             continue
         if other == floor_body and robot_link in floor_contact_links:
             continue
-        result.append(Collision(link_names.get(robot_link, str(robot_link)), other, other_link))
+        result.append(Collision(link_names.get(robot_link, str(robot_link)), other, other_link, distance))
     return result
 
 

@@ -5,7 +5,9 @@ import pybullet as p
 import pytest
 
 from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.motion_generation.generator import collides_beyond, contact_depths
 from relmogen.motion_generation.planners import BACKENDS
+from relmogen.simulation.contacts import Collision
 
 
 @pytest.fixture(scope="module")
@@ -77,10 +79,13 @@ def test_every_executed_base_waypoint_is_collision_free_in_the_full_simulation(m
                 continue
             executed += 1
             end = env.robot.base_pose()
+            original(*start)
+            p.performCollisionDetection(physicsClientId=env.world.client)
+            touching_at_start = contact_depths(env.collisions())
             for pose in visited:  # replay: every pose the MG put the robot at and kept
                 original(*pose)
                 p.performCollisionDetection(physicsClientId=env.world.client)
-                if env.collisions():
+                if collides_beyond(env.collisions(), touching_at_start):
                     assert "stopped before a collision" in info["reason"]
                     assert not np.allclose(pose, end)
             original(*end)
@@ -103,6 +108,38 @@ def test_start_touching_an_obstacle_can_leave_it(nav):
     nav.robot.stop_wheels()
     _, _, _, _, info = nav.step(base_action(0.0, 0.8))
     assert info["plan_found"], info["reason"]
+
+
+def test_a_robot_pressed_against_a_wall_can_turn_and_drive_away(nav):
+    nav.reset(seed=0)
+    scan = nav.scan()
+    nearest = int(np.argmin(scan))
+    x, y, yaw = nav.robot.base_pose()
+    toward = yaw + nav.lidar.angles[nearest]
+    heading = toward + np.pi  # the wall behind the robot
+    for along in np.arange(0.0, float(scan[nearest]), 0.005):  # back up until the base touches it, then 5 mm more
+        nav.robot.set_base_pose(x + along * np.cos(toward), y + along * np.sin(toward), heading)
+        p.performCollisionDetection(physicsClientId=nav.world.client)
+        if nav.collisions():
+            nav.robot.set_base_pose(x + (along + 0.005) * np.cos(toward), y + (along + 0.005) * np.sin(toward),
+                                    heading)
+            break
+    p.performCollisionDetection(physicsClientId=nav.world.client)
+    assert nav.collisions(), "the robot should start in contact with the wall"
+    nav.robot.stop_wheels()
+    _, _, _, _, info = nav.step(base_action(60.0, 0.6))  # turn on the spot first: the contact persists
+    assert info["plan_found"], info["reason"]
+    assert info["reason"] != "stopped before a collision at waypoint 1" and info["path_length_m"] > 0.2
+
+
+def test_a_waypoint_may_keep_a_contact_of_the_start_but_not_deepen_it_or_add_one():
+    start = contact_depths([Collision("base_link", 3, -1, -0.004), Collision("base_link", 3, -1, -0.001)])
+    assert start == {(3, -1): -0.004}
+    assert not collides_beyond([Collision("base_link", 3, -1, -0.005)], start)  # within the tolerance
+    assert collides_beyond([Collision("base_link", 3, -1, -0.010)], start)  # deeper
+    assert collides_beyond([Collision("base_link", 4, -1, 0.0)], start)  # a new body
+    assert collides_beyond([Collision("base_link", 3, 2, 0.0)], start)  # another link of it
+    assert not collides_beyond([], start)
 
 
 def test_goal_outside_the_window_or_in_a_wall_fails_at_once_with_a_reason(monkeypatch):

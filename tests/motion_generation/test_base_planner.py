@@ -19,6 +19,7 @@ from relmogen.motion_generation.base_planner import (
     wrap_angle,
 )
 from relmogen.motion_generation.planners import BACKENDS, make_planner
+from relmogen.simulation.frames import to_local
 from relmogen.simulation.occupancy import OCCUPIED, UNKNOWN, LocalMap
 
 ALL_BACKENDS = sorted(BACKENDS)
@@ -186,6 +187,27 @@ def test_nearest_free_with_the_line_blocked_beyond_the_blind_zone_stays_in_it():
                        goal_mode="nearest_free")
     # only the robot's own blind zone is free: it may move within it, never beyond
     assert result.success and result.path_length_m <= FETCH_FOOTPRINT_RADIUS + 0.3
+
+
+@pytest.mark.parametrize("backend", ["rrt_connect", "lazy_prm"])
+def test_nearest_reachable_drives_a_goal_walled_off_from_the_robot_to_the_wall(backend):
+    closed_door = doorway_map(gap=0.0)
+    goal = np.array([2.0, -1.0, 0.3])  # free, behind the wall at x = 1
+    assert plan_base(closed_door, goal, backend, rng=0, goal_mode="nearest_free").reason == (
+        "goal not connected to the robot on the local map")
+    result = plan_base(closed_door, goal, backend, rng=0, goal_mode="nearest_reachable")
+    assert result.success and result.reason.startswith("goal unreachable, moved")
+    end_robot = to_local(result.path_world[-1][:2], ROBOT_POSE)
+    assert abs(end_robot[0] * goal[1] - end_robot[1] * goal[0]) < 1e-6  # on the line to the goal
+    assert 1.0 - 0.05 - FETCH_FOOTPRINT_RADIUS - 2 * BASE_STEP_M <= end_robot[0] <= 1.0 - FETCH_FOOTPRINT_RADIUS
+    assert abs(wrap_angle(result.path_world[-1][2] - ROBOT_POSE[2] - 0.3)) < TOL
+
+
+def test_nearest_reachable_keeps_a_reachable_goal():
+    goal = np.array([1.5, 0.5, 0.0])
+    result = plan_base(empty_map(), goal, "rrt_connect", rng=0, goal_mode="nearest_reachable")
+    assert result.success and "moved" not in result.reason
+    assert np.allclose(to_local(result.path_world[-1][:2], ROBOT_POSE), goal[:2], atol=1e-6)
 
 
 def test_an_unknown_goal_mode_is_refused():
