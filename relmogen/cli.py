@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from relmogen import __version__
+from relmogen.motion_generation.base_planner import GOAL_MODES
 
 CHECKPOINT_METAVAR = "latest|best|PATH"  # relmogen.experiments.evaluate.resolve_checkpoint
 PLANNER_PROBLEMS_DEFAULT = 8  # the whole `bench planner` run stays under ~3 minutes on 2 cores
@@ -184,7 +185,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     result = evaluate_path(Path(args.path), args.episodes, args.seed, args.base_planner, args.arm_planner,
                            args.arm_collision == "on", args.scene, args.device,
                            stochastic=args.stochastic, skip_no_ops=args.skip_no_ops, checkpoint=args.checkpoint,
-                           video=Path(args.video) if args.video else None, robot=args.robot)
+                           video=Path(args.video) if args.video else None, robot=args.robot,
+                           base_goal=args.base_goal)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
     return 0
 
@@ -440,6 +442,9 @@ def _add_eval(sub) -> None:
     evaluate.add_argument("--scene", default=None, help="A or B (or a full scene name)")
     evaluate.add_argument("--robot", default=None, metavar="NAME",
                           help="evaluate on this robot instead of the run's (fetch, movo; the spaces must match)")
+    evaluate.add_argument("--base-goal", default=None, choices=list(GOAL_MODES),
+                          help="a base goal the robot cannot reach: strict (no-op, the paper's), nearest_free or "
+                               "nearest_reachable (drive toward it); default the run's")
     evaluate.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
     evaluate.add_argument("--stochastic", action="store_true",
                           help="sample SGP-R/SAC actions instead of the deterministic mean; "

@@ -81,11 +81,14 @@ def policy_act(model, config: TrainConfig, env: RelmogenEnv, stochastic: bool = 
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                    quiet: bool = False, stochastic: bool = False, skip_no_ops: bool = False,
-                   video: Path | None = None, robot: str | None = None) -> dict:
+                   video: Path | None = None, robot: str | None = None, base_goal: str | None = None) -> dict:
     """``episodes`` episodes with seeds ``seed, seed + 1, ...``: the settings and the aggregated
     metrics; ``video`` (a .gif or .mp4 path) records the first one with overlays. ``robot``
-    evaluates on another embodiment than the run's (its spaces must be the policy's)."""
+    evaluates on another embodiment than the run's (its spaces must be the policy's),
+    ``base_goal`` with another rule for base goals the robot cannot reach (``EnvConfig.base_goal``)."""
     config = with_robot(config, robot)
+    if base_goal is not None:
+        config = with_env(config, base_goal=base_goal)
     if skip_no_ops and config.algo != "relmogen-d":
         raise ValueError(f"--skip-no-ops excludes a discrete subgoal that changed nothing; it needs relmogen-d, "
                          f"not {config.algo}")
@@ -129,7 +132,12 @@ def with_robot(config: TrainConfig, robot: str | None) -> TrainConfig:
     if robot is None or robot == config.env.robot:
         return config
     load_spec(robot)  # an unknown name: ValueError listing the robots
-    return config.model_copy(update={"env": EnvConfig.model_validate({**config.env.model_dump(), "robot": robot})})
+    return with_env(config, robot=robot)
+
+
+def with_env(config: TrainConfig, **fields) -> TrainConfig:
+    """``config`` with these ``env`` fields replaced, validated by ``EnvConfig``."""
+    return config.model_copy(update={"env": EnvConfig.model_validate({**config.env.model_dump(), **fields})})
 
 
 CHECKPOINT_CHOICES = ("latest", "best")
@@ -192,7 +200,7 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                   device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False,
                   skip_no_ops: bool = False, checkpoint: str = "latest", video: Path | None = None,
-                  robot: str | None = None) -> dict:
+                  robot: str | None = None, base_goal: str | None = None) -> dict:
     """``evaluate_model`` on a run's checkpoint (``resolve_checkpoint``), saved in ``RUN/eval/``
     under ``evaluation_file_name``."""
     if video is not None:
@@ -200,23 +208,27 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
     folder, run_dir = resolve_checkpoint(path, checkpoint)
     model, config = load_checkpoint(folder, run_dir, device)
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
-                            stochastic, skip_no_ops, video, robot)
+                            stochastic, skip_no_ops, video, robot, base_goal)
     state = checkpoint_state(folder)
     result = {**result, "checkpoint": folder.name, "checkpoint_episode": state.get("episodes")}
     if save:
         (run_dir / "eval").mkdir(exist_ok=True)
-        (run_dir / "eval" / evaluation_file_name(result, arm_collision)).write_text(json.dumps(result, indent=1))
+        name = evaluation_file_name(result, arm_collision, trained_base_goal=config.env.base_goal)
+        (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
     return result
 
 
-def evaluation_file_name(result: dict, arm_collision: bool) -> str:
-    """``eval_<scene>[_<robot>]_<base planner>_<arm planner>_collision-<on|off>_<N>ep[_stochastic]
-    [_skip_no_ops]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the planners of joint
-    control; the robot only when it is not Fetch."""
+def evaluation_file_name(result: dict, arm_collision: bool, trained_base_goal: str | None = None) -> str:
+    """``eval_<scene>[_<robot>]_<base planner>_<arm planner>[_goal-<base goal>]_collision-<on|off>_<N>ep
+    [_stochastic][_skip_no_ops]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the planners
+    of joint control; the robot only when it is not Fetch, the base goal rule only when it is not
+    the one the run trained with."""
     policy = result["policy"]
     robot = "" if result.get("robot", "fetch") == "fetch" else f"_{result['robot']}"
-    return (f"eval_{result.get('scene')}{robot}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}_"
-            f"collision-{'on' if arm_collision else 'off'}_{result['episodes']}ep"
+    goal = result.get("base_goal")
+    goal = f"_goal-{goal}" if goal is not None and trained_base_goal is not None and goal != trained_base_goal else ""
+    return (f"eval_{result.get('scene')}{robot}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}"
+            f"{goal}_collision-{'on' if arm_collision else 'off'}_{result['episodes']}ep"
             f"{'_stochastic' if policy.startswith('stochastic') else ''}"
             f"{'_skip_no_ops' if policy.endswith('skip-no-ops') else ''}"
             f"_{result['checkpoint']}_seed{result['eval_seed']}.json")

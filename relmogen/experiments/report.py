@@ -59,6 +59,7 @@ def final_evaluation(run_dir: Path) -> dict | None:
     evals = [e for e in evals if policy_of(e) == "deterministic" and checkpoint_of(e) == "latest"]
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
+                     and e.get("base_goal", config.env.base_goal) == config.env.base_goal
                      and (config.env.scene is None or e.get("scene") == config.env.scene)
                      and e.get("robot", config.env.robot) == config.env.robot]
     if same_planners:
@@ -160,7 +161,8 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
     return {key: np.array([_number(r.get(key)) for r in rows]) for key in CURVE_KEYS}
 
 
-SETTING_KEYS = ("scene", "robot", "base_planner", "arm_planner", "arm_collision", "policy", "checkpoint", "eval_episodes")
+SETTING_KEYS = ("scene", "robot", "base_planner", "arm_planner", "base_goal", "arm_collision", "policy", "checkpoint",
+                "eval_episodes")
 SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction",
                    "repeated_subgoal_rate", "unchanged_view_rate", "oracle_agreement")
 ROW_METRICS = TABLE_METRICS + tuple(metric for metric in SETTING_METRICS if metric not in TABLE_METRICS)
@@ -171,7 +173,8 @@ def evaluation_setting(evaluation: dict) -> dict:
     """The conditions an evaluation ran under, keyed as ``SETTING_KEYS``; None where it records none."""
     return {"scene": evaluation.get("scene"), "robot": evaluation.get("robot"),
             "base_planner": evaluation.get("base_planner"),
-            "arm_planner": evaluation.get("arm_planner"), "arm_collision": evaluation.get("arm_collision", True),
+            "arm_planner": evaluation.get("arm_planner"), "base_goal": evaluation.get("base_goal"),
+            "arm_collision": evaluation.get("arm_collision", True),
             "policy": policy_of(evaluation), "checkpoint": checkpoint_of(evaluation),
             "eval_episodes": evaluation.get("episodes")}
 

@@ -49,10 +49,16 @@ task has no collision row."""
 
 
 def evaluated_rows(folder: Path) -> list[dict]:
-    """The ReLMoGen rows of ``folder/*/table.json`` in the planner and collision tables' setting."""
-    return [_with_defaults(row, source) for source, table in read_tables(folder) for row in table["rows"]
-            if row["algorithm"] in RELMOGEN and row["policy"] == "deterministic"
-            and row.get("robot") in (None, "fetch") and (row.get("scene") or "_A").endswith("_A")]
+    """The ReLMoGen rows of ``folder/*/table.json`` in the planner and collision tables' setting
+    (with the base goal rule the runs trained with)."""
+    rows = []
+    for source, table in read_tables(folder):
+        trained_goal = next((row.get("base_goal") for row in table["rows"] if row["reference"]), None)
+        rows += [_with_defaults(row, source) for row in table["rows"]
+                 if row["algorithm"] in RELMOGEN and row["policy"] == "deterministic"
+                 and row.get("robot") in (None, "fetch") and (row.get("scene") or "_A").endswith("_A")
+                 and row.get("base_goal") in (None, trained_goal)]
+    return rows
 
 
 def _with_defaults(row: dict, source: str) -> dict:

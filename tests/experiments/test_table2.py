@@ -13,11 +13,11 @@ from relmogen.experiments.table2 import write_table2
 RATES = {0: 0.9, 1: 1.0, 2: 0.8}
 
 
-def add_evaluation(run, rate: float, base: str, arm: str, collision: bool) -> None:
-    name = f"eval_{base}_{arm}_collision-{'on' if collision else 'off'}.json"
+def add_evaluation(run, rate: float, base: str, arm: str, collision: bool, **extra) -> None:
+    name = f"eval_{base}_{arm}{''.join(f'_{v}' for v in extra.values())}_collision-{'on' if collision else 'off'}.json"
     (run / "eval" / name).write_text(json.dumps({"success_rate": rate, "spl": 0.5, "closed_5": 0.0, "closed_10": 0.0,
                                                  "base_planner": base, "arm_planner": arm, "arm_collision": collision,
-                                                 "episodes": 50}))
+                                                 "episodes": 50, **extra}))
 
 
 def table1_folder(tmp_path):
@@ -49,6 +49,17 @@ def test_planner_swap_and_collision_rows_carry_the_change_and_the_papers_values(
     assert [line[5:7] for line in swap] == [["RRT-Connect", "RRT-Connect"], ["RRT-Connect", "Lazy PRM"],
                                            ["Lazy PRM", "RRT-Connect"], ["Lazy PRM", "Lazy PRM"]]
     assert swap[1][7] == "not run" and swap[3][7].endswith("(-0.10), 50 eps")
+
+
+def test_evaluations_with_another_base_goal_rule_stay_out_of_the_planner_tables(tmp_path):
+    folder = table1_folder(tmp_path)
+    for run in sorted((tmp_path / "runs").iterdir()):
+        add_evaluation(run, 0.0, "rrt_connect", "rrt_connect", True, base_goal="nearest_reachable")
+    write_report(sorted((tmp_path / "runs").iterdir()), folder / "PushDoorNav__relmogen-r")
+    result = write_table2(folder, tmp_path / "table2")
+    training = [r for r in result["rows"] if (r["table"], r["base_planner"], r["arm_planner"], r["arm_collision"])
+                == ("planner_swap", "rrt_connect", "rrt_connect", True)]
+    assert len(training) == 1 and training[0]["ours"]["mean"] == pytest.approx(np.mean(list(RATES.values())))
 
 
 def test_table2_needs_an_output_folder(tmp_path, capsys):

@@ -304,6 +304,14 @@ def test_eval_picks_the_checkpoint_names_it_and_its_seeds_and_records_a_video(pr
         [f"{setting}_{best.name}_seed7.json", f"{setting}_{latest.name}_seed7.json", f"{setting}_{latest.name}_seed8.json"])
     reference = final_evaluation(run_dir)  # of the latest checkpoint, the newest of equal size
     assert (reference["checkpoint"], reference["eval_seed"]) == (latest.name, 8)
+    # another base goal rule (the run's is strict): named in the file, kept beside the reference
+    assert main(["eval", str(run_dir), "--episodes", "1", "--seed", "9", "--base-goal", "nearest_reachable",
+                 "--json"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert result["base_goal"] == "nearest_reachable"
+    assert (run_dir / "eval" / ("eval_office_A_rrt_connect_rrt_connect_goal-nearest_reachable_collision-on_1ep_"
+                                f"{latest.name}_seed9.json")).is_file()
+    assert final_evaluation(run_dir)["eval_seed"] == 8
 
 
 # ------------------------------------------------------------------ environment workers
