@@ -96,14 +96,19 @@ def test_every_executed_base_waypoint_is_collision_free_in_the_full_simulation(m
     env.close()
 
 
-def test_start_touching_an_obstacle_can_leave_it(nav):
-    nav.reset(seed=0)
-    # back the robot up against the closest wall: face away from it at 0.30 m clearance
-    scan = nav.scan()
+def nearest_wall(env):
+    """After a seed-0 reset: the robot's (x, y), the world direction of the nearest LiDAR hit and its range."""
+    env.reset(seed=0)
+    scan = env.scan()
     nearest = int(np.argmin(scan))
-    x, y, yaw = nav.robot.base_pose()
-    toward = yaw + nav.lidar.angles[nearest]
-    gap = float(scan[nearest]) - 0.30 - 0.0
+    x, y, yaw = env.robot.base_pose()
+    return x, y, yaw + env.lidar.angles[nearest], float(scan[nearest])
+
+
+def test_start_touching_an_obstacle_can_leave_it(nav):
+    # back the robot up against the closest wall: face away from it at 0.30 m clearance
+    x, y, toward, distance = nearest_wall(nav)
+    gap = distance - 0.30
     nav.robot.set_base_pose(x + gap * np.cos(toward), y + gap * np.sin(toward), toward + np.pi)
     nav.robot.stop_wheels()
     _, _, _, _, info = nav.step(base_action(0.0, 0.8))
@@ -111,13 +116,9 @@ def test_start_touching_an_obstacle_can_leave_it(nav):
 
 
 def test_a_robot_pressed_against_a_wall_can_turn_and_drive_away(nav):
-    nav.reset(seed=0)
-    scan = nav.scan()
-    nearest = int(np.argmin(scan))
-    x, y, yaw = nav.robot.base_pose()
-    toward = yaw + nav.lidar.angles[nearest]
+    x, y, toward, distance = nearest_wall(nav)
     heading = toward + np.pi  # the wall behind the robot
-    for along in np.arange(0.0, float(scan[nearest]), 0.005):  # back up until the base touches it, then 5 mm more
+    for along in np.arange(0.0, distance, 0.005):  # back up until the base touches it, then 5 mm more
         nav.robot.set_base_pose(x + along * np.cos(toward), y + along * np.sin(toward), heading)
         p.performCollisionDetection(physicsClientId=nav.world.client)
         if nav.collisions():
