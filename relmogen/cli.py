@@ -193,12 +193,15 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from relmogen.agents.shipped import export_actor
-    from relmogen.experiments.evaluate import load_checkpoint, resolve_checkpoint
+    from relmogen.experiments.evaluate import checkpoint_evaluations, load_checkpoint, resolve_checkpoint
 
     checkpoint, run_dir = resolve_checkpoint(Path(args.run), args.checkpoint)
     model, config = load_checkpoint(checkpoint, run_dir, device="cpu")
     state = json.loads((checkpoint / "state.json").read_text())
-    provenance = {"run": run_dir.name, "command": " ".join(sys.argv), "checkpoint": checkpoint.name, **state}
+    provenance = {"run": run_dir.name, "command": " ".join(sys.argv), "checkpoint": checkpoint.name, **state,
+                  "evaluations": checkpoint_evaluations(run_dir, checkpoint.name)}
+    if args.note:
+        provenance["note"] = args.note
     out = export_actor(model, config, Path(args.out), provenance)
     print(f"wrote {out}")
     return 0
@@ -464,6 +467,7 @@ def _add_export(sub) -> None:
     export.add_argument("--checkpoint", default="latest", metavar=CHECKPOINT_METAVAR,
                         help="which model of the run (default latest)")
     export.add_argument("--out", required=True, help="folder to write config.yaml, actor.pt, provenance.json")
+    export.add_argument("--note", default=None, help="a line for provenance.json (where the run's story is told)")
     export.set_defaults(func=cmd_export)
 
 
