@@ -193,7 +193,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from relmogen.agents.shipped import export_actor
-    from relmogen.experiments.evaluate import checkpoint_evaluations, load_checkpoint, resolve_checkpoint
+    from relmogen.experiments.evaluate import load_checkpoint, resolve_checkpoint
+    from relmogen.experiments.report import checkpoint_evaluations
 
     checkpoint, run_dir = resolve_checkpoint(Path(args.run), args.checkpoint)
     model, config = load_checkpoint(checkpoint, run_dir, device="cpu")

@@ -218,14 +218,6 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
     return result
 
 
-def checkpoint_evaluations(run_dir: Path, checkpoint_name: str) -> list[dict]:
-    """The ``relmogen eval`` results saved in ``RUN/eval/`` for one checkpoint folder (e.g.
-    ``best_0000500``), most episodes first."""
-    evaluations = [json.loads(f.read_text()) for f in sorted((Path(run_dir) / "eval").glob("*.json"))]
-    mine = [e for e in evaluations if e.get("checkpoint") == checkpoint_name]
-    return sorted(mine, key=lambda e: -e.get("episodes", 0))
-
-
 def evaluation_file_name(result: dict, arm_collision: bool, trained_base_goal: str | None = None) -> str:
     """``eval_<scene>[_<robot>]_<base planner>_<arm planner>[_goal-<base goal>]_collision-<on|off>_<N>ep
     [_stochastic][_skip_no_ops]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the planners

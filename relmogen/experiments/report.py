@@ -77,6 +77,14 @@ def read_evaluation(path: Path) -> dict:
     return evaluation
 
 
+def checkpoint_evaluations(run_dir: Path, checkpoint_name: str) -> list[dict]:
+    """The ``relmogen eval`` results saved in ``RUN/eval/`` for one checkpoint folder (e.g.
+    ``best_0000500``), most episodes first."""
+    evaluations = [read_evaluation(f) for f in sorted((Path(run_dir) / "eval").glob("*.json"))]
+    mine = [e for e in evaluations if e.get("checkpoint") == checkpoint_name]
+    return sorted(mine, key=lambda e: -e.get("episodes", 0))
+
+
 def is_assisted(config) -> bool:
     """Whether the run learned from more than its reward: oracle demonstrations or oracle labels."""
     return config.algo_params.demo_episodes > 0 or config.algo_params.oracle_labels

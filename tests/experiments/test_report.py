@@ -9,7 +9,8 @@ import pytest
 
 from relmogen.experiments.config import resolve_config, save_config
 from relmogen.cli import main
-from relmogen.experiments.report import ROW_METRICS, _counts_items, final_evaluation, read_curve, write_report
+from relmogen.experiments.report import (ROW_METRICS, _counts_items, checkpoint_evaluations, final_evaluation, read_curve,
+                                         write_report)
 from relmogen.experiments.table1 import write_table1
 
 
@@ -242,3 +243,21 @@ def test_reference_rows_give_the_episodes_at_which_periodic_evaluation_first_rea
                      if row["reference"])
     assert reference["episodes_to_success_rate"] == {"0.5": [200, 300], "0.9": [400, None]}
     assert "200, 300" in result["markdown"] and "400, -" in result["markdown"]
+
+
+def save_evaluation(run, name: str, checkpoint: str, episodes: int, success_rate: float) -> None:
+    (run / "eval" / name).write_text(json.dumps({"checkpoint": checkpoint, "episodes": episodes,
+                                                 "success_rate": success_rate}))
+
+
+def test_only_the_checkpoints_own_evaluations_most_episodes_first(tmp_path):
+    (tmp_path / "eval").mkdir()
+    save_evaluation(tmp_path, "a.json", "best_0000500", 50, 0.70)
+    save_evaluation(tmp_path, "b.json", "best_0000500", 100, 0.78)
+    save_evaluation(tmp_path, "c.json", "episode_0001000", 100, 0.18)
+    found = checkpoint_evaluations(tmp_path, "best_0000500")
+    assert [(e["episodes"], e["success_rate"]) for e in found] == [(100, 0.78), (50, 0.70)]
+
+
+def test_a_run_never_evaluated_has_none(tmp_path):
+    assert checkpoint_evaluations(tmp_path, "episode_0000020") == []
