@@ -262,7 +262,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         return 0
     if not args.runs or args.out is None:
         raise ValueError("report needs RUN_DIR... --out DIR, --table1 DIR, or --table2 DIR --out OUT")
-    result = write_report([Path(p) for p in args.runs], Path(args.out))
+    result = write_report([Path(p) for p in args.runs], Path(args.out), args.checkpoint)
     print(result.pop("markdown"))
     print(json.dumps(result))
     return 0
@@ -527,6 +527,9 @@ def _add_report(sub) -> None:
                                                         "from DIR/*/table.json (one report per task and algorithm)")
     report.add_argument("--table2", metavar="DIR", help="with --out OUT: the paper's Tables II / A.4 (planner swap) and "
                                                         "A.2 (arm collision checking) beside ours, from DIR/*/table.json")
+    report.add_argument("--checkpoint", choices=["latest", "best"], default="latest",
+                        help="the reference table evaluates each run's latest checkpoint (default) or the best one "
+                             "its periodic evaluations chose (an early-stopping protocol, shown as such in Table I)")
     report.set_defaults(func=cmd_report)
 
 

@@ -40,6 +40,9 @@ cost teaches the critic that it loses the step.
 ``last_subgoal`` (9,) float32: the previous action (clipped to [-1, 1]; zeros after a reset)
 and 1.0 if it executed nothing (``executed_nothing``), else 0.0. A no-op then changes the
 observation, so the policy can choose differently after one instead of repeating it.
+
+``arm_rrt`` = (iterations, restarts) of the arm's RRT-Connect; the default (20, 2) is the
+paper's planner budget (``ArmConfig.rrt_iterations``).
 """
 
 from __future__ import annotations
@@ -51,6 +54,7 @@ from gymnasium import spaces
 
 from relmogen.envs.controls import Control, StepOutcome, validate_action
 from relmogen.motion_generation.base_planner import FootprintChecker, wrap_angle
+from relmogen.motion_generation.arm import ArmConfig
 from relmogen.motion_generation.generator import MotionGenerator, MotionGeneratorConfig, SubgoalResult
 
 if TYPE_CHECKING:
@@ -119,14 +123,16 @@ class SubgoalControl(Control):
     name = "subgoal"
 
     def __init__(self, env: RelmogenEnv, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
-                 arm_collision: bool = True, base_goal: str = "strict", noop_cost: float = 0.0):
+                 arm_collision: bool = True, base_goal: str = "strict", noop_cost: float = 0.0,
+                 arm_rrt: tuple[int, int] = (ArmConfig.rrt_iterations, ArmConfig.rrt_restarts)):
         if not (np.isfinite(noop_cost) and noop_cost >= 0):
             raise ValueError(f"noop_cost must be a finite number >= 0, got {noop_cost!r}")
         self.env, self.noop_cost = env, float(noop_cost)
         self.episode_steps = env.task.subgoal_steps
         self.parts = env.task.subgoal_parts
         config = MotionGeneratorConfig(base_planner=base_planner, arm_planner=arm_planner,
-                                       arm_collision_checking=arm_collision, base_goal=base_goal)
+                                       arm_collision_checking=arm_collision, base_goal=base_goal,
+                                       arm=ArmConfig(rrt_iterations=int(arm_rrt[0]), rrt_restarts=int(arm_rrt[1])))
         self.mg = MotionGenerator(env, config)
 
     def execute_base(self, goal_robot_frame: np.ndarray) -> tuple[SubgoalResult, RewardAccumulator]:

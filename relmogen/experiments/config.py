@@ -43,6 +43,10 @@ class EnvConfig(_Strict):
     noop_cost: float = Field(0.0, ge=0)  # subgoal controls: reward -cost for a subgoal that executed nothing (ours)
     # relmogen-r: observe the previous subgoal and whether it executed nothing (ours; subgoal_controls.py)
     subgoal_feedback: bool = False
+    # subgoal controls: (iterations, restarts) of the arm's RRT-Connect; (20, 2) is the paper's
+    # planner budget. (100, 4) turned most of the shipped policy's "no arm plan" subgoals into plans
+    # (1.4 -> 0.3 per episode) for +1 CPU s per episode (results/pushdoornav-mg/)
+    arm_rrt: tuple[int, int] = (20, 2)
     robot: str = "fetch"  # the embodiment: a folder of relmogen/robots/assets with a spec.yaml (fetch, movo)
     # The paper's fine-tuning to a new scene (appendix, PushDoorNav Scene-A -> Scene-B): the last
     # round(second_scene_fraction x n_envs) training environments run in second_scene (a scene
@@ -57,6 +61,13 @@ class EnvConfig(_Strict):
             raise ValueError(f"env.qmap_size {self.qmap_size} needs env.image_size 2, 4 or 8 times it, "
                              f"got {self.image_size}")
         return self
+
+    @field_validator("arm_rrt")
+    @classmethod
+    def _arm_rrt_positive(cls, arm_rrt: tuple[int, int]) -> tuple[int, int]:
+        if min(arm_rrt) < 1:
+            raise ValueError(f"env.arm_rrt is (iterations, restarts), both >= 1, got {list(arm_rrt)}")
+        return arm_rrt
 
     @field_validator("robot")
     @classmethod

@@ -114,7 +114,8 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if config.control != "joint":
         settings.update(base_planner=base_planner or config.env.base_planner,
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
-                        base_goal=config.env.base_goal, noop_cost=config.env.noop_cost)
+                        base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
+                        arm_rrt=tuple(config.env.arm_rrt))
     if config.control == "subgoal-r":
         settings["subgoal_feedback"] = config.env.subgoal_feedback
     result = {**settings, **aggregate(records)}

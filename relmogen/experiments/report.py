@@ -38,6 +38,9 @@ def policy_of(evaluation: dict) -> str:
     return evaluation.get("policy", "deterministic")
 
 
+REFERENCE_CHECKPOINTS = ("latest", "best")
+
+
 def checkpoint_of(evaluation: dict) -> str:
     """``best`` for an evaluation of ``checkpoints/best``, else ``latest`` (any other checkpoint
     folder: the run's latest unless chosen by path; evaluations older than the field)."""
@@ -50,13 +53,17 @@ def has_metric(task: str, metric: str) -> bool:
     return metric not in TABLE_METRICS or metric in task_evaluation_keys(task)
 
 
-def final_evaluation(run_dir: Path) -> dict | None:
-    """The run's reference evaluation: arm collision checking on, with the planners it was
+def final_evaluation(run_dir: Path, checkpoint: str = "latest") -> dict | None:
+    """The run's reference evaluation of its ``checkpoint`` (``latest``, or ``best``: the model
+    its periodic evaluations chose): arm collision checking on, with the planners it was
     trained with, the most episodes, then the newest (planner-swap and scene-transfer
-    evaluations sit beside it and are reported separately); else the last periodic one."""
+    evaluations sit beside it and are reported separately); else, for ``latest``, the last
+    periodic one."""
+    if checkpoint not in REFERENCE_CHECKPOINTS:
+        raise ValueError(f"reference checkpoint {checkpoint!r}; valid: {', '.join(REFERENCE_CHECKPOINTS)}")
     config = read_config(run_dir / "config.yaml")
     evals = [read_evaluation(p) | {"_mtime": p.stat().st_mtime} for p in (run_dir / "eval").glob("*collision-on*.json")]
-    evals = [e for e in evals if policy_of(e) == "deterministic" and checkpoint_of(e) == "latest"]
+    evals = [e for e in evals if policy_of(e) == "deterministic" and checkpoint_of(e) == checkpoint]
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
                      and e.get("base_goal", config.env.base_goal) == config.env.base_goal
@@ -65,7 +72,7 @@ def final_evaluation(run_dir: Path) -> dict | None:
     if same_planners:
         best = max(same_planners, key=lambda e: (e.get("episodes", 0), e["_mtime"]))
         return {k: v for k, v in best.items() if k != "_mtime"}
-    periodic = read_periodic_evaluations(run_dir)
+    periodic = read_periodic_evaluations(run_dir) if checkpoint == "latest" else []
     return periodic[-1] if periodic else None
 
 
@@ -95,7 +102,7 @@ def summarise(values: list[float]) -> dict[str, float]:
     return {"mean": float(arr.mean()), "std": float(arr.std()), "max": float(arr.max()), "n": len(arr)}
 
 
-def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
+def collect(run_dirs: list[Path], checkpoint: str = "latest") -> dict[tuple[str, str], list[dict]]:
     from relmogen.experiments.train import run_config_file
 
     run_dirs = [Path(run_dir) for run_dir in run_dirs]
@@ -105,7 +112,7 @@ def collect(run_dirs: list[Path]) -> dict[tuple[str, str], list[dict]]:
     for run_dir in run_dirs:
         config = read_config(run_dir / "config.yaml")
         groups[(config.task, config.algo)].append({
-            "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir), "assisted": is_assisted(config),
+            "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir, checkpoint), "assisted": is_assisted(config),
             "eval_every": config.run.eval_every_episodes,
             "all_evals": [read_evaluation(p) for p in sorted((run_dir / "eval").glob("*.json"))],
             "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
@@ -431,10 +438,10 @@ def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
     return path
 
 
-def write_report(run_dirs: list[Path], out: Path) -> dict[str, str]:
+def write_report(run_dirs: list[Path], out: Path, checkpoint: str = "latest") -> dict[str, str]:
     """Writes ``table.md``, ``table.json`` and ``curves.png`` in ``out``; returns their paths and the
-    markdown."""
-    groups = collect(run_dirs)
+    markdown. The reference table is each run's evaluation of ``checkpoint`` (``final_evaluation``)."""
+    groups = collect(run_dirs, checkpoint)
     if not groups:
         raise ValueError("no run directories given")
     out = Path(out)

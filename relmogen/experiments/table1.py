@@ -44,7 +44,9 @@ HEADER = """# Table I: our runs beside the paper
 Our reward-only runs (neither demonstrations nor oracle labels; 3 seeds each) against the paper's
 Table I (its mean over 3 seeds). Ours is mean / std / max over seeds (their number in parentheses)
 of the final evaluation: deterministic policy, arm collision checking on, the planners used in
-training. Each `<Task>__<algorithm>/` folder holds its report (`table.md`, `table.json`,
+training, 100 episodes on evaluation seeds from 100000. It evaluates each run's latest checkpoint,
+except where a cell says "best checkpoint": there it evaluates the model that the run's periodic
+evaluations (other seeds, from 10000) chose during training, an early-stopping protocol. Each `<Task>__<algorithm>/` folder holds its report (`table.md`, `table.json`,
 `curves.png`) and the commands that made it (`COMMANDS.md`); `relmogen report --table1 <this
 folder>` rewrites this file."""
 
@@ -94,7 +96,10 @@ def comparable_rows(rows: list[dict]) -> dict[tuple[str, str], dict]:
 def ours_cell(row: dict | None, metric: str) -> str:
     """``mean / std / max (seeds)`` of the row's metric; ``-`` without a row or a value."""
     summary = row.get(metric) if row is not None else None
-    return "-" if summary is None else f"{summary_cell(summary)} ({row['seeds']})"
+    if summary is None:
+        return "-"
+    chosen = ", best checkpoint" if row.get("checkpoint") == "best" else ""
+    return f"{summary_cell(summary)} ({row['seeds']}{chosen})"
 
 
 def paper_cell(task: str, algo: str) -> str:

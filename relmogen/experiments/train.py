@@ -85,7 +85,8 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
     if config.control != "joint":
         kwargs.update(base_planner=base_planner or config.env.base_planner,
                       arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
-                      base_goal=config.env.base_goal, noop_cost=config.env.noop_cost)
+                      base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
+                      arm_rrt=tuple(config.env.arm_rrt))
     if config.control == "subgoal-r" and config.env.subgoal_feedback:
         kwargs["subgoal_feedback"] = True
     if config.control == "subgoal-d":

@@ -467,3 +467,15 @@ def test_base_subgoals_plan_on_the_observation_scan_until_the_robot_moves():
     fresh = env.observed_scan()
     assert fresh is not env.last_scan and not np.allclose(fresh, env.last_scan)
     env.close()
+
+
+def test_the_arm_rrt_budget_reaches_the_arm_planner_and_survives_a_planner_swap():
+    env = RelmogenEnv(task="PointNav", control="subgoal-r", image_size=32, arm_rrt=(100, 4))
+    try:
+        arm = env.control.mg.arm
+        assert (arm.planner.params.iterations, arm.planner.params.restarts) == (100, 4)
+        env.control.mg.set_planners(arm="lazy_prm")
+        env.control.mg.set_planners(arm="rrt_connect")
+        assert (arm.planner.params.iterations, arm.planner.params.restarts) == (100, 4)
+    finally:
+        env.close()

@@ -32,6 +32,7 @@ def test_every_value_can_be_overridden():
     (dict(overrides=["algo.batch_size=-1"]), "batch_size"),
     (dict(overrides=["algo.not_a_key=1"]), "not_a_key"),
     (dict(overrides=["nonsense"]), "section.key=value"),
+    (dict(algo="relmogen-r", overrides=["env.arm_rrt=[0,4]"]), "arm_rrt"),
 ])
 def test_bad_configuration_is_refused_with_a_reason(kwargs, message):
     args = dict(task="PointNav", algo="sac") | kwargs

@@ -233,6 +233,25 @@ def test_an_evaluation_of_the_best_checkpoint_is_a_setting_of_its_own_not_the_re
     assert len(best) == 1 and best[0]["success_rate"]["mean"] == 0.9 and not best[0]["reference"]
 
 
+def test_the_best_checkpoint_can_be_the_reference_and_table1_says_so(tmp_path):
+    run = fake_run(tmp_path / "runs", "relmogen-r", 0, 0.5, 0.4)
+    evaluation = {"success_rate": 0.9, "spl": 0.1, "closed_5": 0.0, "closed_10": 0.0, "episodes": 100,
+                  "scene": "office_A", "base_planner": "rrt_connect", "arm_planner": "rrt_connect",
+                  "eval_seed": 100_000, "checkpoint": "best_0000080"}
+    (run / "eval" / "eval_office_A_rrt_connect_rrt_connect_collision-on_100ep_best_seed100000.json").write_text(
+        json.dumps(evaluation))
+    assert final_evaluation(run, "best")["success_rate"] == 0.9
+    assert final_evaluation(run, "latest")["success_rate"] == 0.5
+    write_report([run], tmp_path / "PushDoorNav__relmogen-r", checkpoint="best")
+    rows = json.loads((tmp_path / "PushDoorNav__relmogen-r" / "table.json").read_text())["rows"]
+    reference = next(row for row in rows if row["reference"])
+    assert reference["checkpoint"] == "best" and reference["success_rate"]["mean"] == 0.9
+    readme = write_table1(tmp_path).read_text()
+    assert "0.90 / 0.00 / 0.90 (1, best checkpoint)" in readme
+    with pytest.raises(ValueError, match="latest, best"):
+        final_evaluation(run, "newest")
+
+
 def test_reference_rows_give_the_episodes_at_which_periodic_evaluation_first_reached_05_and_09(tmp_path):
     runs = [fake_run(tmp_path, "relmogen-r", s, 0.9, 0.5) for s in (0, 1)]
     for run, rates in zip(runs, [(0.1, 0.6, 0.4, 0.9), (0.0, 0.2, 0.5, 0.8)]):
