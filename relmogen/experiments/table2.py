@@ -53,8 +53,9 @@ def evaluated_rows(folder: Path) -> list[dict]:
     (with the base goal rule the runs trained with)."""
     rows = []
     for source, table in read_tables(folder):
-        trained_goal = next((row.get("base_goal") for row in table["rows"] if row["reference"]), None)
-        rows += [_with_defaults(row, source) for row in table["rows"]
+        reference = next((row for row in table["rows"] if row["reference"]), {})
+        trained_goal, chosen = reference.get("base_goal"), reference.get("checkpoint") or "latest"
+        rows += [dict(_with_defaults(row, source), reference_checkpoint=chosen) for row in table["rows"]
                  if row["algorithm"] in RELMOGEN and row["policy"] == "deterministic"
                  and row.get("robot") in (None, "fetch") and (row.get("scene") or "_A").endswith("_A")
                  and row.get("base_goal") in (None, trained_goal)]
@@ -79,9 +80,10 @@ def _has_arm(task: str) -> bool:
 
 
 def _groups(rows: list[dict]) -> dict[str, dict[tuple, dict]]:
-    """source folder -> evaluation setting -> row (the latest checkpoint's row wins over best)."""
+    """source folder -> evaluation setting -> row (a row of the checkpoint its reference table
+    evaluates, ``report --checkpoint``, wins over one of the other checkpoint)."""
     groups: dict[str, dict[tuple, dict]] = {}
-    for row in sorted(rows, key=lambda r: r["checkpoint"] != "latest", reverse=True):
+    for row in sorted(rows, key=lambda r: r["checkpoint"] == r.get("reference_checkpoint", "latest")):
         groups.setdefault(row["source"], {})[_setting(row)] = row
     return groups
 

@@ -65,3 +65,18 @@ def test_evaluations_with_another_base_goal_rule_stay_out_of_the_planner_tables(
 def test_table2_needs_an_output_folder(tmp_path, capsys):
     assert main(["report", "--table2", str(table1_folder(tmp_path))]) == 2
     assert "--out" in capsys.readouterr().err
+
+
+def test_a_best_checkpoint_reference_compares_best_checkpoint_swaps_only(tmp_path):
+    runs = []
+    for seed, rate in RATES.items():
+        run = fake_run(tmp_path / "runs", "relmogen-r", seed, rate - 0.5, 0.5)  # the latest checkpoint
+        add_evaluation(run, rate, "rrt_connect", "rrt_connect", True, checkpoint="best_0000100")
+        add_evaluation(run, rate - 0.1, "lazy_prm", "lazy_prm", True, checkpoint="best_0000100")
+        runs.append(run)
+    write_report(runs, tmp_path / "table1" / "PushDoorNav__relmogen-r", checkpoint="best")
+    result = write_table2(tmp_path / "table1", tmp_path / "table2")
+    rows = {(r["table"], r["base_planner"], r["arm_planner"], r["arm_collision"]): r for r in result["rows"]}
+    training = rows[("planner_swap", "rrt_connect", "rrt_connect", True)]
+    assert training["ours"]["mean"] == pytest.approx(np.mean(list(RATES.values())))
+    assert rows[("planner_swap", "lazy_prm", "lazy_prm", True)]["change"] == pytest.approx(-0.1)

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# evaluations of the phase-2 runs (runs/p2mg), two at a time: best and latest checkpoints on 100
+# episodes (seeds 100000+), then best with Lazy PRM for base and arm and with checking off (50)
+set -uo pipefail
+cd /work/main && source .venv/bin/activate
+runs=$(ls -d runs/p2mg/PushDoorNav__relmogen-r__[0-9]__*[0-9])
+{
+  for r in $runs; do echo "$r --checkpoint best --episodes 100"; done
+  for r in $runs; do echo "$r --episodes 100"; done
+  for r in $runs; do echo "$r --checkpoint best --episodes 50 --base-planner lazy_prm --arm-planner lazy_prm"; done
+  for r in $runs; do echo "$r --checkpoint best --episodes 50 --arm-collision off"; done
+} | xargs -P 2 -L 1 bash -c 'relmogen eval $0 "$@" --seed 100000 --json > /dev/null 2>> runs/p2mg/post.log || echo "failed: $0 $*" >> runs/p2mg/post.log'
