@@ -454,8 +454,9 @@ def _add_eval(sub) -> None:
                           help="sample SGP-R/SAC actions instead of the deterministic mean; "
                                "SGP-D acts epsilon-greedy at its final training epsilon")
     evaluate.add_argument("--skip-no-ops", action="store_true",
-                          help="SGP-D only, a test-time rule reported as its own policy: a subgoal after which the "
-                               "camera image and local map did not change is not chosen again until they do")
+                          help="a test-time rule reported as its own policy, after a subgoal that left the camera "
+                               "image and local map unchanged: SGP-D does not choose it again until they change, "
+                               "SGP-R samples its next subgoal instead of taking the mean")
     evaluate.add_argument("--video", metavar="PATH", default=None,
                           help="record the first episode, annotated, to this .gif or .mp4")
     evaluate.add_argument("--json", action="store_true", help="print the metrics as one JSON object")

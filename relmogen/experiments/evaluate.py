@@ -6,9 +6,10 @@ Atari): a deterministic subgoal policy whose subgoal finds no plan sees the same
 again (the step was a no-op) and repeats it until the episode ends, so both figures are worth
 reporting. Action sampling is seeded from ``seed``.
 
-``skip_no_ops=True`` (SGP-D only; ours) adds a test-time rule, ``relmogen.agents.dqn.NoOpMemory``:
-a subgoal after which the view did not change is not chosen again until it does. It is reported
-as its own policy (``deterministic-skip-no-ops``), never as the paper's greedy figure.
+``skip_no_ops=True`` (SGP-D and SGP-R; ours) adds a test-time rule after a subgoal that left the
+view unchanged (``relmogen.agents.addons.skip_no_ops``): SGP-D does not choose it again until the
+view changes; SGP-R samples its next subgoal instead of taking the mean. It is reported as its own
+policy (``deterministic-skip-no-ops``), never as the paper's greedy figure.
 
 SGP-D evaluations of a task with an oracle also report ``oracle_agreement``: the share of the
 policy's subgoals that were the oracle's choice in the same state (``OracleAgreement``), a
@@ -36,6 +37,7 @@ from typing import Iterator
 import numpy as np
 import torch as th
 
+from relmogen.agents.addons.skip_no_ops import sample_after_no_ops
 from relmogen.agents.demonstrations import OracleAgreement
 from relmogen.agents.dqn import env_policy
 from relmogen.agents.oracles import ORACLES
@@ -70,6 +72,8 @@ def policy_act(model, config: TrainConfig, env: RelmogenEnv, stochastic: bool = 
         return env_policy(model, env, deterministic=not stochastic, skip_no_ops=skip_no_ops)
     if config.algo == "hrl4in":  # both levels; subgoals held across steps (agents/hrl4in.py)
         return model.evaluation_policy(env, deterministic=not stochastic)
+    if skip_no_ops:
+        return sample_after_no_ops(model)
 
     def act(obs):
         return model.predict(obs, deterministic=not stochastic)[0]
@@ -89,9 +93,12 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     config = with_robot(config, robot)
     if base_goal is not None:
         config = with_env(config, base_goal=base_goal)
-    if skip_no_ops and config.algo != "relmogen-d":
-        raise ValueError(f"--skip-no-ops excludes a discrete subgoal that changed nothing; it needs relmogen-d, "
-                         f"not {config.algo}")
+    if skip_no_ops and config.algo not in ("relmogen-d", "relmogen-r"):
+        raise ValueError(f"--skip-no-ops changes a subgoal policy's choice after a subgoal that changed nothing; it "
+                         f"needs relmogen-d or relmogen-r, not {config.algo}")
+    if skip_no_ops and stochastic and config.algo == "relmogen-r":
+        raise ValueError("--skip-no-ops makes relmogen-r sample only after a no-op; --stochastic samples at every "
+                         "step already, so use one of them")
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
@@ -149,12 +156,18 @@ MISSING_CHECKPOINT = {
 
 
 def resolve_checkpoint(path: Path, checkpoint: str = "latest") -> tuple[Path, Path]:
-    """(checkpoint folder, run directory) of ``path``: a checkpoint folder, or a run directory
-    with ``checkpoint`` one of ``CHECKPOINT_CHOICES`` or the path of a checkpoint folder (or the
-    name of one in the run's ``checkpoints/``)."""
-    from relmogen.experiments.train import run_config_file
+    """(checkpoint folder, run directory) of ``path``: a checkpoint folder, the run's pointer file
+    ``RUN/checkpoints/best`` or ``latest``, or a run directory with ``checkpoint`` one of
+    ``CHECKPOINT_CHOICES`` or the path of a checkpoint folder (or the name of one in the run's
+    ``checkpoints/``)."""
+    from relmogen.experiments.train import CHECKPOINTS, run_config_file
 
     path = Path(path)
+    if path.is_file() and path.name in CHECKPOINT_CHOICES and path.parent.name == CHECKPOINTS:
+        if checkpoint != "latest":
+            raise ValueError(f"{path} names one checkpoint already; give its run directory to choose --checkpoint "
+                             f"{checkpoint}")
+        return resolve_checkpoint(path.parent.parent, path.name)
     if (path / "model.zip").is_file():
         if checkpoint != "latest":
             raise ValueError(f"{path} is a checkpoint folder; give its run directory to choose --checkpoint "

@@ -26,7 +26,7 @@ from relmogen.agents.shipped import export_actor, open_shipped
 from relmogen.cli import main
 from relmogen.experiments.config import load_preset, read_config, resolve_config
 from relmogen.experiments.env_workers import WORKER_ERRORS, EnvWorkerError, GuardedSubprocVecEnv, last_logged_error
-from relmogen.experiments.evaluate import evaluate_path, load_policy
+from relmogen.experiments.evaluate import evaluate_path, load_policy, resolve_checkpoint
 from relmogen.experiments.report import final_evaluation
 from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, best_checkpoint, env_kwargs,
                                        evaluation_rank, latest_checkpoint, latest_replay, make_training_env,
@@ -80,11 +80,12 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     assert sampled["policy"] == "stochastic" and list((run_dir / "eval").glob("*_stochastic_episode_*.json"))
     if algo == "relmogen-d":
         assert 0.0 < sampled["epsilon"] <= 1.0
+    if algo.startswith("relmogen"):
         skipping = evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
         assert skipping["policy"] == "deterministic-skip-no-ops"
         assert list((run_dir / "eval").glob("*_1ep_skip_no_ops_episode_*_seed0.json"))
     else:
-        with pytest.raises(ValueError, match="needs relmogen-d"):
+        with pytest.raises(ValueError, match="needs relmogen-d or relmogen-r"):
             evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
     assert list((run_dir / "eval").glob("*.json"))
     if algo == "relmogen-d":
@@ -277,6 +278,9 @@ def test_the_best_periodic_evaluation_keeps_its_model_as_checkpoints_best(preset
     assert state["evaluation"] == expected
     assert sorted(path.name for path in best.iterdir()) == ["model.zip", "state.json"]  # the model only
     assert [path.name for path in (run_dir / "checkpoints").glob("best_*")] == [best.name]
+    # the pointer files name their checkpoint wherever a checkpoint folder is accepted
+    assert resolve_checkpoint(run_dir / "checkpoints" / "best") == (best, run_dir)
+    assert resolve_checkpoint(run_dir / "checkpoints" / "latest") == (latest_checkpoint(run_dir), run_dir)
 
 
 def test_evaluations_rank_by_success_then_items_closed_then_return():

@@ -10,7 +10,7 @@ which results folder measured it.
 | ``kept_demonstrations``  | ``algo.demo_keep``              | a replay mixin                            |
 | ``n_step``               | ``algo.n_step_returns``         | a replay mixin                            |
 | ``oracle_labels``        | ``algo.oracle_labels``          | ``OracleLabeller``, called by the learner |
-| ``skip_no_ops``          | ``relmogen eval --skip-no-ops`` | ``NoOpMemory``, at test time only         |
+| ``skip_no_ops``          | ``relmogen eval --skip-no-ops`` | at test time only (SGP-R too)             |
 
 ``dqn.py`` composes them: ``QMapReplayBuffer`` puts the replay mixins in front of the plain
 ``CellMaskReplayBuffer``, and ``RelmogenDQN`` builds its loss terms and labeller from its

@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Fine-tune one PushDoorNav ReLMoGen-R policy of results/table1 (its best checkpoint, with its
+# run's replay) with half of the training environments in office_B, under the settings of its
+# own phase 2 (../pushdoornav-mg/phase2.sh): SEED CPU_HOURS [more train args]
+# The source runs are runs/p2mg/ on the machine that trained them.
+set -euo pipefail
+cd /work/main && source .venv/bin/activate
+SEED=$1; HOURS=$2; shift 2
+source_run=$(ls -d runs/p2mg/PushDoorNav__relmogen-r__${SEED}__2* | tail -1)
+relmogen train --init-from $source_run/checkpoints/$(cat $source_run/checkpoints/best) --init-replay --task PushDoorNav --algo relmogen-r \
+  --seed $SEED --preset cpu --episodes 100000 --set max_cpu_hours=$HOURS --set env.subgoal_feedback=true \
+  --set env.arm_collision_train=true --set algo.learning_starts=0 --set 'env.arm_rrt=[100,4]' \
+  --set algo.ent_coef_min=0.02 --set run.eval_every_episodes=100000 --set env.second_scene=office_B \
+  --out runs/finetune-scene --quiet "$@"
