@@ -84,6 +84,9 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
         skipping = evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
         assert skipping["policy"] == "deterministic-skip-no-ops"
         assert list((run_dir / "eval").glob("*_1ep_skip_no_ops_episode_*_seed0.json"))
+        if algo == "relmogen-r":  # it samples after no-ops; --stochastic samples everywhere already
+            with pytest.raises(ValueError, match="use one of them"):
+                evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True, stochastic=True)
     else:
         with pytest.raises(ValueError, match="needs relmogen-d or relmogen-r"):
             evaluate_path(run_dir, episodes=1, quiet=True, skip_no_ops=True)
