@@ -164,10 +164,7 @@ def resolve_checkpoint(path: Path, checkpoint: str = "latest") -> tuple[Path, Pa
 
     path = Path(path)
     if path.is_file() and path.name in CHECKPOINT_CHOICES and path.parent.name == CHECKPOINTS:
-        if checkpoint != "latest":
-            raise ValueError(f"{path} names one checkpoint already; give its run directory to choose --checkpoint "
-                             f"{checkpoint}")
-        return resolve_checkpoint(path.parent.parent, path.name)
+        path = _run_checkpoint(path.parent.parent, path.name)  # the folder the pointer names
     if (path / "model.zip").is_file():
         if checkpoint != "latest":
             raise ValueError(f"{path} is a checkpoint folder; give its run directory to choose --checkpoint "
