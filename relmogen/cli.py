@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -186,7 +187,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
                            args.arm_collision == "on", args.scene, args.device,
                            stochastic=args.stochastic, skip_no_ops=args.skip_no_ops, checkpoint=args.checkpoint,
                            video=Path(args.video) if args.video else None, robot=args.robot,
-                           base_goal=args.base_goal)
+                           base_goal=args.base_goal, base_goal_clearance=args.base_goal_clearance)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
     return 0
 
@@ -449,6 +450,9 @@ def _add_eval(sub) -> None:
     evaluate.add_argument("--base-goal", default=None, choices=list(GOAL_MODES),
                           help="a base goal the robot cannot reach: strict (no-op, the paper's), nearest_free or "
                                "nearest_reachable (drive toward it); default the run's")
+    evaluate.add_argument("--base-goal-clearance", type=_non_negative_float, default=None, metavar="M",
+                          help="metres a base goal must keep from obstacles beyond the footprint (0: the paper's); "
+                               "default the run's")
     evaluate.add_argument("--device", default="auto", help="torch device: auto (CUDA if present), cpu or cuda")
     evaluate.add_argument("--stochastic", action="store_true",
                           help="sample SGP-R/SAC actions instead of the deterministic mean; "
@@ -568,6 +572,13 @@ def _non_negative_int(text: str) -> int:
     value = int(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text}")
+    return value
+
+
+def _non_negative_float(text: str) -> float:
+    value = float(text)
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value
 
 

@@ -124,7 +124,8 @@ class SubgoalControl(Control):
 
     def __init__(self, env: RelmogenEnv, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
                  arm_collision: bool = True, base_goal: str = "strict", noop_cost: float = 0.0,
-                 arm_rrt: tuple[int, int] = (ArmConfig.rrt_iterations, ArmConfig.rrt_restarts)):
+                 arm_rrt: tuple[int, int] = (ArmConfig.rrt_iterations, ArmConfig.rrt_restarts),
+                 base_goal_clearance: float = 0.0):
         if not (np.isfinite(noop_cost) and noop_cost >= 0):
             raise ValueError(f"noop_cost must be a finite number >= 0, got {noop_cost!r}")
         self.env, self.noop_cost = env, float(noop_cost)
@@ -132,6 +133,7 @@ class SubgoalControl(Control):
         self.parts = env.task.subgoal_parts
         config = MotionGeneratorConfig(base_planner=base_planner, arm_planner=arm_planner,
                                        arm_collision_checking=arm_collision, base_goal=base_goal,
+                                       base_goal_clearance=float(base_goal_clearance),
                                        arm=ArmConfig(rrt_iterations=int(arm_rrt[0]), rrt_restarts=int(arm_rrt[1])))
         self.mg = MotionGenerator(env, config)
 

@@ -40,6 +40,9 @@ class EnvConfig(_Strict):
     # "nearest_free" drives to the nearest free pose toward it, "nearest_reachable" to the nearest
     # pose toward it that is free and connected to the robot on the local map (ours; base_planner.py)
     base_goal: Literal["strict", "nearest_free", "nearest_reachable"] = "strict"
+    # m a base goal pose keeps from obstacles beyond the footprint, like a navigation stack's
+    # inflation (ours; 0 is the paper's): the base cannot park where the arm has no room to push
+    base_goal_clearance: float = Field(0.0, ge=0, le=1.0)
     noop_cost: float = Field(0.0, ge=0)  # subgoal controls: reward -cost for a subgoal that executed nothing (ours)
     # relmogen-r: observe the previous subgoal and whether it executed nothing (ours; subgoal_controls.py)
     subgoal_feedback: bool = False

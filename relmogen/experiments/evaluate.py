@@ -85,14 +85,18 @@ def policy_act(model, config: TrainConfig, env: RelmogenEnv, stochastic: bool = 
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                    quiet: bool = False, stochastic: bool = False, skip_no_ops: bool = False,
-                   video: Path | None = None, robot: str | None = None, base_goal: str | None = None) -> dict:
+                   video: Path | None = None, robot: str | None = None, base_goal: str | None = None,
+                   base_goal_clearance: float | None = None) -> dict:
     """``episodes`` episodes with seeds ``seed, seed + 1, ...``: the settings and the aggregated
     metrics; ``video`` (a .gif or .mp4 path) records the first one with overlays. ``robot``
     evaluates on another embodiment than the run's (its spaces must be the policy's),
-    ``base_goal`` with another rule for base goals the robot cannot reach (``EnvConfig.base_goal``)."""
+    ``base_goal`` / ``base_goal_clearance`` with another rule for base goals the robot cannot
+    reach or must not park at (``EnvConfig.base_goal``, ``EnvConfig.base_goal_clearance``)."""
     config = with_robot(config, robot)
     if base_goal is not None:
         config = with_env(config, base_goal=base_goal)
+    if base_goal_clearance is not None:
+        config = with_env(config, base_goal_clearance=base_goal_clearance)
     if skip_no_ops and config.algo not in ("relmogen-d", "relmogen-r"):
         raise ValueError(f"--skip-no-ops changes a subgoal policy's choice after a subgoal that changed nothing; it "
                          f"needs relmogen-d or relmogen-r, not {config.algo}")
@@ -122,7 +126,7 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
         settings.update(base_planner=base_planner or config.env.base_planner,
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
                         base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
-                        arm_rrt=tuple(config.env.arm_rrt))
+                        arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance)
     if config.control == "subgoal-r":
         settings["subgoal_feedback"] = config.env.subgoal_feedback
     result = {**settings, **aggregate(records)}
@@ -211,7 +215,8 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                   device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False,
                   skip_no_ops: bool = False, checkpoint: str = "latest", video: Path | None = None,
-                  robot: str | None = None, base_goal: str | None = None) -> dict:
+                  robot: str | None = None, base_goal: str | None = None,
+                  base_goal_clearance: float | None = None) -> dict:
     """``evaluate_model`` on a run's checkpoint (``resolve_checkpoint``), saved in ``RUN/eval/``
     under ``evaluation_file_name``."""
     if video is not None:
@@ -219,25 +224,30 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
     folder, run_dir = resolve_checkpoint(path, checkpoint)
     model, config = load_checkpoint(folder, run_dir, device)
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
-                            stochastic, skip_no_ops, video, robot, base_goal)
+                            stochastic, skip_no_ops, video, robot, base_goal, base_goal_clearance)
     state = checkpoint_state(folder)
     result = {**result, "checkpoint": folder.name, "checkpoint_episode": state.get("episodes")}
     if save:
         (run_dir / "eval").mkdir(exist_ok=True)
-        name = evaluation_file_name(result, arm_collision, trained_base_goal=config.env.base_goal)
+        name = evaluation_file_name(result, arm_collision, trained_base_goal=config.env.base_goal,
+                                    trained_goal_clearance=config.env.base_goal_clearance)
         (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
     return result
 
 
-def evaluation_file_name(result: dict, arm_collision: bool, trained_base_goal: str | None = None) -> str:
-    """``eval_<scene>[_<robot>]_<base planner>_<arm planner>[_goal-<base goal>]_collision-<on|off>_<N>ep
-    [_stochastic][_skip_no_ops]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the planners
-    of joint control; the robot only when it is not Fetch, the base goal rule only when it is not
-    the one the run trained with."""
+def evaluation_file_name(result: dict, arm_collision: bool, trained_base_goal: str | None = None,
+                         trained_goal_clearance: float = 0.0) -> str:
+    """``eval_<scene>[_<robot>]_<base planner>_<arm planner>[_goal-<base goal>][_clearance-<m>]_collision-<on|off>
+    _<N>ep[_stochastic][_skip_no_ops]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the
+    planners of joint control; the robot only when it is not Fetch, the base goal rule and its
+    clearance only when they are not the ones the run trained with."""
     policy = result["policy"]
     robot = "" if result.get("robot", "fetch") == "fetch" else f"_{result['robot']}"
     goal = result.get("base_goal")
     goal = f"_goal-{goal}" if goal is not None and trained_base_goal is not None and goal != trained_base_goal else ""
+    clearance = result.get("base_goal_clearance")
+    if clearance is not None and clearance != trained_goal_clearance:
+        goal += f"_clearance-{clearance:.2f}"
     return (f"eval_{result.get('scene')}{robot}_{result.get('base_planner', 'na')}_{result.get('arm_planner', 'na')}"
             f"{goal}_collision-{'on' if arm_collision else 'off'}_{result['episodes']}ep"
             f"{'_stochastic' if policy.startswith('stochastic') else ''}"

@@ -67,6 +67,7 @@ def final_evaluation(run_dir: Path, checkpoint: str = "latest") -> dict | None:
     same_planners = [e for e in evals if e.get("base_planner", config.env.base_planner) == config.env.base_planner
                      and e.get("arm_planner", config.env.arm_planner) == config.env.arm_planner
                      and e.get("base_goal", config.env.base_goal) == config.env.base_goal
+                     and e.get("base_goal_clearance", 0.0) == config.env.base_goal_clearance
                      and (config.env.scene is None or e.get("scene") == config.env.scene)
                      and e.get("robot", config.env.robot) == config.env.robot]
     if same_planners:
@@ -176,8 +177,8 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
     return {key: np.array([_number(r.get(key)) for r in rows]) for key in CURVE_KEYS}
 
 
-SETTING_KEYS = ("scene", "robot", "base_planner", "arm_planner", "base_goal", "arm_collision", "policy", "checkpoint",
-                "eval_episodes")
+SETTING_KEYS = ("scene", "robot", "base_planner", "arm_planner", "base_goal", "base_goal_clearance", "arm_collision",
+                "policy", "checkpoint", "eval_episodes")
 SETTING_METRICS = ("success_rate", "spl", "closed_10", "subgoal_success_rate", "base_fraction",
                    "repeated_subgoal_rate", "unchanged_view_rate", "oracle_agreement")
 ROW_METRICS = TABLE_METRICS + tuple(metric for metric in SETTING_METRICS if metric not in TABLE_METRICS)
@@ -189,6 +190,7 @@ def evaluation_setting(evaluation: dict) -> dict:
     return {"scene": evaluation.get("scene"), "robot": evaluation.get("robot"),
             "base_planner": evaluation.get("base_planner"),
             "arm_planner": evaluation.get("arm_planner"), "base_goal": evaluation.get("base_goal"),
+            "base_goal_clearance": evaluation.get("base_goal_clearance", 0.0 if evaluation.get("base_goal") else None),
             "arm_collision": evaluation.get("arm_collision", True),
             "policy": policy_of(evaluation), "checkpoint": checkpoint_of(evaluation),
             "eval_episodes": evaluation.get("episodes")}

@@ -38,6 +38,7 @@ class MotionGeneratorConfig:
     arm_planner: str = "rrt_connect"
     arm_collision_checking: bool = True  # the paper trains with False, evaluates with True
     base_goal: str = "strict"  # a base goal in collision: "strict" fails (paper); GOAL_MODES (ours)
+    base_goal_clearance: float = 0.0  # m a base goal keeps from obstacles beyond the footprint (ours; 0: paper)
     map_size_m: float = 5.0
     map_resolution: float = 0.05
     arm: ArmConfig = field(default_factory=ArmConfig)
@@ -127,7 +128,8 @@ class MotionGenerator:
         on the most recent scan); a fresh scan otherwise."""
         planner = self.config.base_planner
         plan = plan_base(self.local_map(ranges), goal_robot_frame, self._base_planner,
-                         self.env.robot.spec.base_radius, rng, goal_mode=self.config.base_goal)
+                         self.env.robot.spec.base_radius, rng, goal_mode=self.config.base_goal,
+                         goal_clearance=self.config.base_goal_clearance)
         if not plan.success:
             return SubgoalResult("base", planner, False, plan.reason, plan.planning_time_s)
         driven, sim_time, stopped_at = self._follow(plan.path_world, tick)

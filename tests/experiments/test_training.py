@@ -319,6 +319,16 @@ def test_eval_picks_the_checkpoint_names_it_and_its_seeds_and_records_a_video(pr
     assert (run_dir / "eval" / ("eval_office_A_rrt_connect_rrt_connect_goal-nearest_reachable_collision-on_1ep_"
                                 f"{latest.name}_seed9.json")).is_file()
     assert final_evaluation(run_dir)["eval_seed"] == 8
+    # another base goal clearance (the run's is 0): named in the file, not the reference either
+    assert main(["eval", str(run_dir), "--episodes", "1", "--seed", "10", "--base-goal-clearance", "0.1",
+                 "--json"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert result["base_goal_clearance"] == 0.1
+    assert (run_dir / "eval" / ("eval_office_A_rrt_connect_rrt_connect_clearance-0.10_collision-on_1ep_"
+                                f"{latest.name}_seed10.json")).is_file()
+    assert final_evaluation(run_dir)["eval_seed"] == 8
+    with pytest.raises(SystemExit):
+        main(["eval", str(run_dir), "--base-goal-clearance", "-0.1"])
 
 
 # ------------------------------------------------------------------ environment workers

@@ -213,3 +213,37 @@ def test_nearest_reachable_keeps_a_reachable_goal():
 def test_an_unknown_goal_mode_is_refused():
     with pytest.raises(ValueError, match="goal_mode"):
         plan_base(empty_map(), np.array([1.0, 0.0, 0.0]), "rrt_connect", goal_mode="loose")
+
+
+@pytest.mark.parametrize("goal_mode", ["nearest_free", "nearest_reachable"])
+def test_goal_clearance_stops_the_base_that_much_farther_from_the_wall(goal_mode):
+    local_map = doorway_map(wall_x=1.5, gap_centre_y=2.0, gap=0.5)
+    goal = np.array([1.5, 0.0, 0.0])
+
+    def stop_distance(clearance: float) -> float:
+        result = plan_base(local_map, goal, "rrt_connect", rng=0, goal_mode=goal_mode, goal_clearance=clearance)
+        assert result.success and "moved" in result.reason
+        return float(to_local(result.path_world[-1][:2], ROBOT_POSE)[0])
+
+    assert stop_distance(0.0) - stop_distance(0.2) == pytest.approx(0.2, abs=BASE_STEP_M + TOL)
+
+
+def test_goal_clearance_refuses_a_free_goal_near_the_wall_in_strict_mode_and_keeps_one_far_from_it():
+    local_map = doorway_map(wall_x=1.5, gap_centre_y=2.0, gap=0.5)
+    near_wall = np.array([1.5 - 0.05 - FETCH_FOOTPRINT_RADIUS - 0.1, 0.0, 0.0])  # 5 cm clear of the wall's face
+    assert plan_base(local_map, near_wall, "rrt_connect", rng=0).success
+    assert plan_base(local_map, near_wall, "rrt_connect", rng=0, goal_clearance=0.15).reason == "goal in collision"
+    far = np.array([0.5, 0.0, 0.0])
+    assert plan_base(local_map, far, "rrt_connect", rng=0, goal_clearance=0.15).success
+
+
+def test_goal_clearance_never_refuses_a_rotation_in_place():
+    next_to_wall = doorway_map(wall_x=FETCH_FOOTPRINT_RADIUS + 0.1, gap_centre_y=2.0, gap=0.5)
+    result = plan_base(next_to_wall, np.array([0.0, 0.0, 1.0]), "rrt_connect", rng=0, goal_clearance=0.3)
+    assert result.success and result.reason == "rotation in place"
+
+
+@pytest.mark.parametrize("clearance", [-0.1, float("nan")])
+def test_a_bad_goal_clearance_is_refused(clearance):
+    with pytest.raises(ValueError, match="goal_clearance"):
+        plan_base(empty_map(), np.array([1.0, 0.0, 0.0]), "rrt_connect", goal_clearance=clearance)
