@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from relmogen.simulation.frames import heading_axes
+from relmogen.simulation.frames import FacesYaw
 
 RGBA = tuple[float, float, float, float]
 
@@ -79,11 +79,12 @@ class Box:
 
 
 @dataclass(frozen=True)
-class Doorway:
+class Doorway(FacesYaw):
     """An opening in a wall joining two regions.
 
     `yaw` is the direction of the wall normal pointing from `regions[0]` into
-    `regions[1]`; `width` is the clear opening; `wall_thickness` the depth of the gap.
+    `regions[1]` (`normal`; `along` runs along the wall); `width` is the clear opening;
+    `wall_thickness` the depth of the gap.
     """
 
     center: tuple[float, float]
@@ -92,15 +93,6 @@ class Doorway:
     regions: tuple[str, str]
     wall_thickness: float
     height: float  # clear height under the lintel
-
-    @property
-    def normal(self) -> np.ndarray:
-        return heading_axes(self.yaw)[0]
-
-    @property
-    def along(self) -> np.ndarray:
-        """Unit vector along the wall (normal rotated by +90 deg)."""
-        return heading_axes(self.yaw)[1]
 
     def joins(self, a: str, b: str) -> bool:
         return set(self.regions) == {a, b}

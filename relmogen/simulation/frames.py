@@ -27,3 +27,17 @@ def heading_axes(yaw: float) -> tuple[np.ndarray, np.ndarray]:
     """Unit vector along ``yaw`` and the one 90 deg to its left."""
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([c, s]), np.array([-s, c])
+
+
+class FacesYaw:
+    """Mixin for something placed facing ``yaw``: ``normal`` points along it, ``along`` 90 deg to its left."""
+
+    yaw: float
+
+    @property
+    def normal(self) -> np.ndarray:
+        return heading_axes(self.yaw)[0]
+
+    @property
+    def along(self) -> np.ndarray:
+        return heading_axes(self.yaw)[1]

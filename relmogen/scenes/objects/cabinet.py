@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from relmogen.simulation.frames import heading_axes
+from relmogen.simulation.frames import FacesYaw
 
 WIDTH, DEPTH, HEIGHT = 0.5, 0.5, 0.85
 FRONT_THICKNESS = 0.02
@@ -104,8 +104,10 @@ def _link_specs(client: int) -> list[dict]:
     ]
 
 
-class Cabinet:
-    """One cabinet set (drawer + door); see the module docstring for frames and links."""
+class Cabinet(FacesYaw):
+    """One cabinet set (drawer + door); see the module docstring for frames and links. ``normal``
+    points out of the front, into the room; ``along`` runs along the front, from the door hinge
+    towards the door's free edge."""
 
     def __init__(self, client: int):
         self.client = client
@@ -179,16 +181,6 @@ class Cabinet:
         return float(p.getJointState(self.body, DOOR_LINK, physicsClientId=self.client)[0])
 
     # ------------------------------------------------------------------ world geometry
-    @property
-    def normal(self) -> np.ndarray:
-        """Unit vector out of the front, into the room."""
-        return heading_axes(self.yaw)[0]
-
-    @property
-    def along(self) -> np.ndarray:
-        """Unit vector along the front, from the door hinge towards the door's free edge."""
-        return heading_axes(self.yaw)[1]
-
     def to_world(self, x: float, y: float) -> np.ndarray:
         return self.front_xy + x * self.normal + y * self.along
 
