@@ -18,7 +18,7 @@
     relmogen sweep --report DIR [--eval-episodes N] [--backend ray|serial]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
                   [--base-planner X] [--arm-planner Y] [--arm-collision on|off] [--scene A|B]
-                  [--stochastic] [--skip-no-ops] [--video PATH.gif|mp4] [--json]
+                  [--stochastic] [--skip-no-ops] [--critic-select K] [--video PATH.gif|mp4] [--json]
     relmogen export RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] --out DIR
     relmogen report RUN_DIRS... --out DIR
     relmogen report --table1 DIR
@@ -187,7 +187,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
                            args.arm_collision == "on", args.scene, args.device,
                            stochastic=args.stochastic, skip_no_ops=args.skip_no_ops, checkpoint=args.checkpoint,
                            video=Path(args.video) if args.video else None, robot=args.robot,
-                           base_goal=args.base_goal, base_goal_clearance=args.base_goal_clearance)
+                           base_goal=args.base_goal, base_goal_clearance=args.base_goal_clearance,
+                           critic_select=args.critic_select)
     _print_metrics(result, args.json, f"evaluation of {args.path}")
     return 0
 
@@ -461,6 +462,9 @@ def _add_eval(sub) -> None:
                           help="a test-time rule reported as its own policy, after a subgoal that left the camera "
                                "image and local map unchanged: SGP-D does not choose it again until they change, "
                                "SGP-R samples its next subgoal instead of taking the mean")
+    evaluate.add_argument("--critic-select", type=_non_negative_int, default=0, metavar="K",
+                          help="ours, a test-time rule reported as its own policy: of the actor's mean and K-1 fixed "
+                               "samples around it, take the action the critics value highest (SGP-R, SAC, OAC)")
     evaluate.add_argument("--video", metavar="PATH", default=None,
                           help="record the first episode, annotated, to this .gif or .mp4")
     evaluate.add_argument("--json", action="store_true", help="print the metrics as one JSON object")

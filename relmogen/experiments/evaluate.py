@@ -11,6 +11,10 @@ view unchanged (``relmogen.agents.addons.skip_no_ops``): SGP-D does not choose i
 view changes; SGP-R samples its next subgoal instead of taking the mean. It is reported as its own
 policy (``deterministic-skip-no-ops``), never as the paper's greedy figure.
 
+``critic_select=K`` (SGP-R and the SAC family; ours) takes, of the actor's mean and K - 1 fixed
+samples around it, the action the critics value highest (``relmogen.agents.addons.critic_select``),
+reported as ``deterministic-critic-select-K``.
+
 SGP-D evaluations of a task with an oracle also report ``oracle_agreement``: the share of the
 policy's subgoals that were the oracle's choice in the same state (``OracleAgreement``), a
 measure of imitation on the states the policy itself reaches, which demonstrations do not cover.
@@ -37,7 +41,9 @@ from typing import Iterator
 import numpy as np
 import torch as th
 
+from relmogen.agents.addons.critic_select import critic_selected
 from relmogen.agents.addons.skip_no_ops import sample_after_no_ops
+from relmogen.agents.shipped import SHIPPABLE_ALGOS
 from relmogen.agents.demonstrations import OracleAgreement
 from relmogen.agents.dqn import env_policy
 from relmogen.agents.oracles import ORACLES
@@ -65,9 +71,12 @@ def seeded_action_sampling(seed: int) -> Iterator[None]:
             np.random.set_state(numpy_state)
 
 
-def policy_act(model, config: TrainConfig, env: RelmogenEnv, stochastic: bool = False, skip_no_ops: bool = False):
+def policy_act(model, config: TrainConfig, env: RelmogenEnv, stochastic: bool = False, skip_no_ops: bool = False,
+               critic_select: int = 0, seed: int = 0):
     """``obs -> action`` of ``model`` on ``env`` (SGP-D masked to its free base cells, see
     ``env_policy``), with a ``reset`` to call at the start of each episode."""
+    if critic_select:
+        return critic_selected(model, critic_select, seed)
     if config.algo == "relmogen-d":
         return env_policy(model, env, deterministic=not stochastic, skip_no_ops=skip_no_ops)
     if config.algo == "hrl4in":  # both levels; subgoals held across steps (agents/hrl4in.py)
@@ -86,7 +95,7 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
                    arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                    quiet: bool = False, stochastic: bool = False, skip_no_ops: bool = False,
                    video: Path | None = None, robot: str | None = None, base_goal: str | None = None,
-                   base_goal_clearance: float | None = None) -> dict:
+                   base_goal_clearance: float | None = None, critic_select: int = 0) -> dict:
     """``episodes`` episodes with seeds ``seed, seed + 1, ...``: the settings and the aggregated
     metrics; ``video`` (a .gif or .mp4 path) records the first one with overlays. ``robot``
     evaluates on another embodiment than the run's (its spaces must be the policy's),
@@ -103,10 +112,14 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if skip_no_ops and stochastic and config.algo == "relmogen-r":
         raise ValueError("--skip-no-ops makes relmogen-r sample only after a no-op; --stochastic samples at every "
                          "step already, so use one of them")
+    if critic_select and (stochastic or skip_no_ops or config.algo not in SHIPPABLE_ALGOS):
+        raise ValueError(f"--critic-select chooses among a SAC-family actor's samples by its critic (relmogen-r, sac, "
+                         f"oac), without --stochastic or --skip-no-ops; got {config.algo}"
+                         f"{' with --stochastic' if stochastic else ''}{' with --skip-no-ops' if skip_no_ops else ''}")
     if scene is not None and scene in ("A", "B"):  # a layout letter: the task's kind of scene
         scene = f"{task_class(config.task).scene_kind}_{scene}"
     env = RelmogenEnv(**env_kwargs(config, arm_collision, base_planner, arm_planner, scene))
-    act, agreement = policy_act(model, config, env, stochastic, skip_no_ops), None
+    act, agreement = policy_act(model, config, env, stochastic, skip_no_ops, critic_select, seed), None
     if config.algo == "relmogen-d" and config.task in ORACLES:
         act = agreement = OracleAgreement(act, env)
     on_reset = act.reset
@@ -117,7 +130,8 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
                                    description=f"eval {config.task}", first_recorder=recorder)
     finally:
         env.close()
-    policy = ("stochastic" if stochastic else "deterministic") + ("-skip-no-ops" if skip_no_ops else "")
+    policy = (("stochastic" if stochastic else "deterministic") + ("-skip-no-ops" if skip_no_ops else "")
+              + (f"-critic-select-{critic_select}" if critic_select else ""))
     settings = {"task": config.task, "algo": config.algo, "training_seed": config.seed, "eval_seed": seed,
                 "scene": env.scene.name, "robot": config.env.robot, "policy": policy}
     if stochastic and config.algo == "relmogen-d":
@@ -216,7 +230,7 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
                   device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False,
                   skip_no_ops: bool = False, checkpoint: str = "latest", video: Path | None = None,
                   robot: str | None = None, base_goal: str | None = None,
-                  base_goal_clearance: float | None = None) -> dict:
+                  base_goal_clearance: float | None = None, critic_select: int = 0) -> dict:
     """``evaluate_model`` on a run's checkpoint (``resolve_checkpoint``), saved in ``RUN/eval/``
     under ``evaluation_file_name``."""
     if video is not None:
@@ -224,7 +238,8 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
     folder, run_dir = resolve_checkpoint(path, checkpoint)
     model, config = load_checkpoint(folder, run_dir, device)
     result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
-                            stochastic, skip_no_ops, video, robot, base_goal, base_goal_clearance)
+                            stochastic, skip_no_ops, video, robot, base_goal, base_goal_clearance,
+                            critic_select)
     state = checkpoint_state(folder)
     result = {**result, "checkpoint": folder.name, "checkpoint_episode": state.get("episodes")}
     if save:
@@ -238,7 +253,7 @@ def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | 
 def evaluation_file_name(result: dict, arm_collision: bool, trained_base_goal: str | None = None,
                          trained_goal_clearance: float = 0.0) -> str:
     """``eval_<scene>[_<robot>]_<base planner>_<arm planner>[_goal-<base goal>][_clearance-<m>]_collision-<on|off>
-    _<N>ep[_stochastic][_skip_no_ops]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the
+    _<N>ep[_stochastic][_skip_no_ops][_critic_select<K>]_<checkpoint folder>_seed<eval seed>.json``; ``na`` for the
     planners of joint control; the robot only when it is not Fetch, the base goal rule and its
     clearance only when they are not the ones the run trained with."""
     policy = result["policy"]
@@ -252,4 +267,5 @@ def evaluation_file_name(result: dict, arm_collision: bool, trained_base_goal: s
             f"{goal}_collision-{'on' if arm_collision else 'off'}_{result['episodes']}ep"
             f"{'_stochastic' if policy.startswith('stochastic') else ''}"
             f"{'_skip_no_ops' if policy.endswith('skip-no-ops') else ''}"
+            f"{'_critic_select' + policy.rsplit('-', 1)[1] if '-critic-select-' in policy else ''}"
             f"_{result['checkpoint']}_seed{result['eval_seed']}.json")

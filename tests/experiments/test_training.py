@@ -329,6 +329,14 @@ def test_eval_picks_the_checkpoint_names_it_and_its_seeds_and_records_a_video(pr
     assert final_evaluation(run_dir)["eval_seed"] == 8
     with pytest.raises(SystemExit):
         main(["eval", str(run_dir), "--base-goal-clearance", "-0.1"])
+    # critic selection: its own policy and file, never the reference; not with --stochastic
+    assert main(["eval", str(run_dir), "--episodes", "1", "--seed", "11", "--critic-select", "4", "--json"]) == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert result["policy"] == "deterministic-critic-select-4"
+    assert (run_dir / "eval" / f"{setting}_critic_select4_{latest.name}_seed11.json").is_file()
+    assert final_evaluation(run_dir)["eval_seed"] == 8
+    assert main(["eval", str(run_dir), "--episodes", "1", "--critic-select", "4", "--stochastic"]) == 2
+    assert "--critic-select" in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------ environment workers

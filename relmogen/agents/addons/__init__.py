@@ -11,6 +11,7 @@ which results folder measured it.
 | ``n_step``               | ``algo.n_step_returns``         | a replay mixin                            |
 | ``oracle_labels``        | ``algo.oracle_labels``          | ``OracleLabeller``, called by the learner |
 | ``skip_no_ops``          | ``relmogen eval --skip-no-ops`` | at test time only (SGP-R too)             |
+| ``critic_select``        | ``relmogen eval --critic-select``| at test time only, SGP-R / SAC / OAC     |
 
 ``dqn.py`` composes them: ``QMapReplayBuffer`` puts the replay mixins in front of the plain
 ``CellMaskReplayBuffer``, and ``RelmogenDQN`` builds its loss terms and labeller from its
