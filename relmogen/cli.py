@@ -17,8 +17,9 @@
                    [--cpus-per-run C] [--eval-episodes N] [--resume] [--quiet]
     relmogen sweep --report DIR [--eval-episodes N] [--backend ray|serial]
     relmogen eval RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
-                  [--base-planner X] [--arm-planner Y] [--arm-collision on|off] [--scene A|B]
-                  [--stochastic] [--skip-no-ops] [--critic-select K] [--video PATH.gif|mp4] [--json]
+                  [--base-planner X] [--arm-planner Y] [--arm-collision on|off] [--scene A|B] [--robot R]
+                  [--base-goal RULE] [--base-goal-clearance M] [--stochastic] [--skip-no-ops]
+                  [--critic-select K] [--video PATH.gif|mp4] [--json]
     relmogen export RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] --out DIR
     relmogen report RUN_DIRS... --out DIR
     relmogen report --table1 DIR

@@ -43,10 +43,10 @@ import torch as th
 
 from relmogen.agents.addons.critic_select import critic_selected
 from relmogen.agents.addons.skip_no_ops import sample_after_no_ops
-from relmogen.agents.shipped import SHIPPABLE_ALGOS
 from relmogen.agents.demonstrations import OracleAgreement
 from relmogen.agents.dqn import env_policy
 from relmogen.agents.oracles import ORACLES
+from relmogen.agents.shipped import SHIPPABLE_ALGOS
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import EnvConfig, TrainConfig, read_config
 from relmogen.experiments.rollout import aggregate, run_episodes
