@@ -155,6 +155,10 @@ class AlgoConfig(_Strict):
 class RunSettings(_Strict):
     eval_every_episodes: int = Field(100, ge=1)
     eval_episodes: int = Field(10, ge=1)
+    # Seed of the periodic evaluations' first episode. None: 10000 + the training episode, a new block
+    # each time. A number: the same block every time (a fixed validation set), so that "best"
+    # compares checkpoints on the same episodes instead of picking whichever block was easy.
+    eval_seed: int | None = Field(None, ge=0)
     checkpoint_every_episodes: int = Field(20, ge=1)  # the model
     replay_every_episodes: int | None = Field(None, ge=1)  # the replay buffer: a multiple of the above; None = same
     # One learner thread: on a 2-core machine shared with the environment workers, two torch

@@ -383,8 +383,9 @@ class TrainingMonitor(BaseCallback):
         earlier one (``evaluation_rank``) makes the model ``checkpoints/best``."""
         from relmogen.experiments.evaluate import evaluate_model
 
+        seed = self.config.run.eval_seed
         result = evaluate_model(self.model, self.config, self.config.run.eval_episodes,
-                                seed=10_000 + episode, quiet=True)
+                                seed=10_000 + episode if seed is None else seed, quiet=True)
         for key in ("success_rate", "spl", "closed_10", "mean_return"):
             self.writer.add_scalar(f"eval/{key}", result[key], episode)
         evaluation = {"episode": episode, "wall_time_s": round(self.wall_time, 2), **result}

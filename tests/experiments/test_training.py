@@ -286,6 +286,15 @@ def test_the_best_periodic_evaluation_keeps_its_model_as_checkpoints_best(preset
     assert resolve_checkpoint(run_dir / "checkpoints" / "latest") == (latest_checkpoint(run_dir), run_dir)
 
 
+def test_a_fixed_eval_seed_plays_the_same_validation_block_every_time(tmp_path):
+    assert main(["train", "--task", "PointNav", "--algo", "relmogen-r", "--preset", "tiny", "--episodes", "2",
+                 "--out", str(tmp_path), "--quiet", "--set", "run.eval_every_episodes=1",
+                 "--set", "run.eval_seed=777"]) == 0
+    (run_dir,) = tmp_path.iterdir()
+    evaluations = [json.loads(line) for line in (run_dir / "eval_during_training.jsonl").read_text().splitlines()]
+    assert [(evaluation["episode"], evaluation["eval_seed"]) for evaluation in evaluations] == [(1, 777), (2, 777)]
+
+
 def test_evaluations_rank_by_success_then_items_closed_then_return():
     evaluations = [{"success_rate": 0.1, "mean_return": -5.0}, {"success_rate": 0.0, "closed_10": 3.0, "mean_return": 2.0},
                    {"success_rate": 0.0, "closed_10": 3.0, "mean_return": 1.0}, {"success_rate": 0.0, "closed_10": 2.0},
