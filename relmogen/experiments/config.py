@@ -333,6 +333,7 @@ RESUMABLE_ALGO_KEYS = frozenset({
     "exploration_steps", "conservative_weight", "demo_episodes", "demo_margin_weight", "n_step_returns",
     "oracle_labels",
 })
+RESUMABLE_BUDGET_KEYS = frozenset({"episodes", "max_hours", "max_cpu_hours"})  # a longer (or shorter) run
 DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
                            "exploration_final_eps", "exploration_steps", "conservative_weight",
                            "demo_margin_weight", "n_step_returns", "oracle_labels"})
@@ -341,17 +342,19 @@ DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "explorati
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:
     """``--set`` on a resumed run: the new config and the changed algorithm parameters.
 
-    Only ``algo.*`` keys in ``RESUMABLE_ALGO_KEYS`` and ``run.*`` keys may change."""
+    Only ``algo.*`` keys in ``RESUMABLE_ALGO_KEYS``, ``run.*`` keys and the budget
+    (``RESUMABLE_BUDGET_KEYS``) may change."""
     tree = config.model_dump()
     for assignment in overrides:
         section = assignment.split("=", 1)[0].strip().split(".")
-        if section[0] == "run" and len(section) == 2:
+        if (section[0] == "run" and len(section) == 2) or (section[0] in RESUMABLE_BUDGET_KEYS and len(section) == 1):
             pass
         elif section[0] == "algo" and len(section) == 2 and section[1] in RESUMABLE_ALGO_KEYS:
             pass
         else:
             raise ValueError(f"cannot change {assignment.split('=', 1)[0]!r} when resuming; resumable keys: "
-                             f"run.*, {', '.join('algo.' + key for key in sorted(RESUMABLE_ALGO_KEYS))}")
+                             f"run.*, {', '.join(sorted(RESUMABLE_BUDGET_KEYS))}, "
+                             f"{', '.join('algo.' + key for key in sorted(RESUMABLE_ALGO_KEYS))}")
         if section[-1] in DQN_ONLY_KEYS and config.algo != "relmogen-d":
             raise ValueError(f"{section[-1]} applies to relmogen-d only, not to this {config.algo} run")
         _apply_override(tree, assignment)

@@ -502,8 +502,8 @@ def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False, in
 def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
            max_hours: float | None = None, overrides: list[str] = ()) -> Path:
     """Continue a run from its latest checkpoint, optionally with a new episode budget, a new
-    total wall-clock budget (hours counted from the run's start, across resumes) or changed
-    learning parameters (``overrides``, ``--set`` syntax, see ``override_config``). Every
+    total wall-clock budget (hours counted from the run's start, across resumes; a total CPU
+    budget through ``max_cpu_hours=H`` in ``overrides``) or changed learning parameters (``overrides``, ``--set`` syntax, see ``override_config``). Every
     change is appended to ``resumes.jsonl`` with the episode it took effect at."""
     run_dir = Path(run_dir)
     config, changed = override_config(read_config(run_config_file(run_dir)), list(overrides))

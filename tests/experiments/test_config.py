@@ -50,6 +50,8 @@ def test_a_resumed_run_may_change_its_learning_schedule_and_reports_what_changed
     with_demos = resolve_config("ButtonDoorNav", "relmogen-d", preset="cpu", overrides=["algo.demo_episodes=5"])
     assert override_config(with_demos, ["algo.demo_margin_weight=2"])[1] == {"demo_margin_weight": 2.0}
     assert override_config(config, ["algo.n_step_returns=5"])[1] == {"n_step_returns": 5}
+    longer, changed = override_config(config, ["max_cpu_hours=0.9", "episodes=5000"])
+    assert (longer.max_cpu_hours, longer.episodes, changed) == (0.9, 5000, {})
 
 
 def test_n_step_returns_are_refused_for_the_sac_family():
