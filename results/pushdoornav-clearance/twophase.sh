@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The Table I recipe for PushDoorNav relmogen-r (../table1/PushDoorNav__relmogen-r/COMMANDS.md) with
+# The Table I recipe for PushDoorNav relmogen-r (../pushdoornav-table1-second/COMMANDS.md) with
 # base goals kept CLEARANCE m from obstacles beyond the footprint in both phases
 # (env.base_goal_clearance): phase 1, arm collision checking off, 1,000 episodes (runs/clear-p1);
 # phase 2 from its weights and replay, checking on, P2_CPU_HOURS (runs/clear-p2).

@@ -2,7 +2,7 @@
 
 SAC's deterministic action is the mean of its actor's squashed Gaussian. With the temperature
 held at a floor the actor stays wide (median pre-tanh std 0.65-0.95 on the PushDoorNav arm
-dimensions, ``results/table1/PushDoorNav__relmogen-r/diagnosis/actor_spread.txt``): the critic
+dimensions, ``results/pushdoornav-table1-second/diagnosis/actor_spread.txt``): the critic
 is trained on samples scattered around the mean, and the mean itself is a point it rarely
 evaluated. This rule scores the mean and ``K - 1`` actions drawn from the actor's own
 distribution, and takes the one with the highest ``min(Q1, Q2)``, the value SAC's actor
@@ -13,7 +13,7 @@ with the actor as its proposal distribution.
 
 Evaluations report it as its own policy (``deterministic-critic-select-K``), never as the plain
 deterministic figure. Measured on a Table I PushDoorNav policy (seed 2, best checkpoint, 20
-episodes; ``results/table1/PushDoorNav__relmogen-r/COMMANDS.md``): SR 0.45 with K = 16 and 0.50
+episodes; ``results/pushdoornav-table1-second/COMMANDS.md``): SR 0.45 with K = 16 and 0.50
 with K = 4, against 0.78 for the mean: the critics rate arm subgoals that change nothing almost
 as highly as progress (a no-op costs 0.1 plus 1% of a value near 10), so maximising over them
 picks no-ops. Not recommended for these policies; kept as the measurement's tool.

@@ -9,7 +9,7 @@ back and chooses the same subgoal until the episode ends.
   ``skip_no_ops=True``. Measured in ``results/sgpd-nstep-long``.
 * SGP-R: ``sample_after_no_ops`` takes the policy's mean subgoal, except right after a subgoal
   that left the view unchanged, when it samples one from the policy's own distribution (what the
-  stochastic policy does at every step). Measured in ``results/table1/PushDoorNav__relmogen-r``.
+  stochastic policy does at every step). Measured in ``results/pushdoornav-table1-second``.
 
 Evaluations report either as its own policy (``deterministic-skip-no-ops``), never as the plain
 deterministic figure.
