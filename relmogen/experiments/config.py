@@ -159,6 +159,9 @@ class RunSettings(_Strict):
     # each time. A number: the same block every time (a fixed validation set), so that "best"
     # compares checkpoints on the same episodes instead of picking whichever block was easy.
     eval_seed: int | None = Field(None, ge=0)
+    # Keep the model of every periodic evaluation (checkpoints/evaluated_<episode>, ~19 MB each at
+    # 64 px), so that a checkpoint can be chosen afterwards on a larger validation block.
+    keep_evaluated: bool = False
     checkpoint_every_episodes: int = Field(20, ge=1)  # the model
     replay_every_episodes: int | None = Field(None, ge=1)  # the replay buffer: a multiple of the above; None = same
     # One learner thread: on a 2-core machine shared with the environment workers, two torch

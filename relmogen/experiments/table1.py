@@ -46,9 +46,10 @@ Table I (its mean over 3 seeds). Ours is mean / std / max over seeds (their numb
 of the final evaluation: deterministic policy, arm collision checking on, the planners used in
 training, 100 episodes on evaluation seeds from 100000. It evaluates each run's latest checkpoint,
 except where a cell says "best checkpoint": there it evaluates the model that the run's periodic
-evaluations (other seeds, from 10000) chose during training, an early-stopping protocol. Each `<Task>__<algorithm>/` folder holds its report (`table.md`, `table.json`,
-`curves.png`) and the commands that made it (`COMMANDS.md`); `relmogen report --table1 <this
-folder>` rewrites this file."""
+evaluations (episodes on other seeds, below 100000; the folder's COMMANDS.md says which) chose
+during training, an early-stopping protocol. Each `<Task>__<algorithm>/` folder holds its report
+(`table.md`, `table.json`, `curves.png`) and the commands that made it (`COMMANDS.md`);
+`relmogen report --table1 <this folder>` rewrites this file."""
 
 ASSISTED_TITLE = "## Assisted runs: demonstrations or oracle labels; not comparable to the paper's reward-only numbers"
 

@@ -261,7 +261,14 @@ def write_best_checkpoint(run_dir: Path, model, state: dict) -> Path:
                          lambda folder: model.save(folder / "model.zip"), state)
 
 
-def _write_folder(root: Path, name: str, pointer: str, write, state: dict) -> Path:
+def write_evaluated_checkpoint(run_dir: Path, model, state: dict) -> Path:
+    """The model alone as ``checkpoints/evaluated_<episode>`` (``run.keep_evaluated``); earlier
+    ones are kept, ``checkpoints/evaluated`` names the newest."""
+    return _write_folder(Path(run_dir) / CHECKPOINTS, f"evaluated_{state['episodes']:07d}", "evaluated",
+                         lambda folder: model.save(folder / "model.zip"), state, prune=False)
+
+
+def _write_folder(root: Path, name: str, pointer: str, write, state: dict, prune: bool = True) -> Path:
     folder, staging = root / name, root / f".staging_{os.getpid()}"
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
@@ -270,7 +277,7 @@ def _write_folder(root: Path, name: str, pointer: str, write, state: dict) -> Pa
     shutil.rmtree(folder, ignore_errors=True)
     os.replace(staging, folder)
     _publish(root, folder.name, pointer)
-    for old in root.glob(name.split("_")[0] + "_*"):
+    for old in root.glob(name.split("_")[0] + "_*") if prune else ():
         if old.name != folder.name:
             shutil.rmtree(old, ignore_errors=True)
     return folder
@@ -391,6 +398,8 @@ class TrainingMonitor(BaseCallback):
         evaluation = {"episode": episode, "wall_time_s": round(self.wall_time, 2), **result}
         with open(self.run_dir / "eval_during_training.jsonl", "a") as handle:
             handle.write(json.dumps(evaluation) + "\n")
+        if self.config.run.keep_evaluated:
+            write_evaluated_checkpoint(self.run_dir, self.model, dict(self._bookkept_state(), evaluation=evaluation))
         best = best_evaluation(self.run_dir)
         if best is None or evaluation_rank(evaluation) > evaluation_rank(best):
             write_best_checkpoint(self.run_dir, self.model, dict(self._bookkept_state(), evaluation=evaluation))

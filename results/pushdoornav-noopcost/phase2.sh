@@ -2,6 +2,7 @@
 # Phase 2 of ../pushdoornav-clearance/twophase.sh (checking on, base-goal clearance CLEARANCE) from
 # the same phase-1 run, with cost NOOP_COST per subgoal that executed nothing (env.noop_cost; the
 # cpu preset's 0.1) and periodic evaluations on one fixed block of 20 episodes (run.eval_seed=20000).
+# run.keep_evaluated (added for the Table I rerun; it changes no training) keeps each evaluated model.
 # SEED P2_CPU_HOURS CLEARANCE NOOP_COST
 set -euo pipefail
 cd /work/main && source .venv/bin/activate
@@ -11,4 +12,4 @@ relmogen train --init-from $run --init-replay --task PushDoorNav --algo relmogen
   --episodes 100000 --set max_cpu_hours=$P2 --set env.subgoal_feedback=true --set env.arm_collision_train=true \
   --set algo.learning_starts=0 --set 'env.arm_rrt=[100,4]' --set algo.ent_coef_min=0.02 \
   --set run.eval_episodes=20 --set run.eval_seed=20000 --set env.base_goal_clearance=$C \
-  --set env.noop_cost=$NOOP --out runs/noop-p2 --quiet
+  --set env.noop_cost=$NOOP --set run.keep_evaluated=true --out runs/noop-p2 --quiet

@@ -285,13 +285,18 @@ def test_the_best_periodic_evaluation_keeps_its_model_as_checkpoints_best(preset
     assert resolve_checkpoint(run_dir / "checkpoints" / "latest") == (latest_checkpoint(run_dir), run_dir)
 
 
-def test_a_fixed_eval_seed_plays_the_same_validation_block_every_time(tmp_path):
+def test_a_fixed_eval_seed_plays_the_same_validation_block_and_keeps_every_evaluated_model(tmp_path):
     assert main(["train", "--task", "PointNav", "--algo", "relmogen-r", "--preset", "tiny", "--episodes", "2",
                  "--out", str(tmp_path), "--quiet", "--set", "run.eval_every_episodes=1",
-                 "--set", "run.eval_seed=777"]) == 0
+                 "--set", "run.eval_seed=777", "--set", "run.keep_evaluated=true"]) == 0
     (run_dir,) = tmp_path.iterdir()
     evaluations = [json.loads(line) for line in (run_dir / "eval_during_training.jsonl").read_text().splitlines()]
     assert [(evaluation["episode"], evaluation["eval_seed"]) for evaluation in evaluations] == [(1, 777), (2, 777)]
+    kept = sorted((run_dir / "checkpoints").glob("evaluated_*"))
+    assert [folder.name for folder in kept] == ["evaluated_0000001", "evaluated_0000002"]
+    for folder, evaluation in zip(kept, evaluations):
+        assert json.loads((folder / "state.json").read_text())["evaluation"] == evaluation
+        assert resolve_checkpoint(run_dir, folder.name) == (folder, run_dir)  # eval --checkpoint evaluated_...
 
 
 def test_evaluations_rank_by_success_then_items_closed_then_return():
