@@ -42,9 +42,11 @@ REFERENCE_CHECKPOINTS = ("latest", "best")
 
 
 def checkpoint_of(evaluation: dict) -> str:
-    """``best`` for an evaluation of ``checkpoints/best``, else ``latest`` (any other checkpoint
-    folder: the run's latest unless chosen by path; evaluations older than the field)."""
-    return "best" if str(evaluation.get("checkpoint", "")).startswith("best_") else "latest"
+    """``best`` for an evaluation of ``checkpoints/best``, ``evaluated`` for one of a model kept by
+    ``run.keep_evaluated``, else ``latest`` (any other checkpoint folder: the run's latest unless
+    chosen by path; evaluations older than the field)."""
+    name = str(evaluation.get("checkpoint", ""))
+    return "best" if name.startswith("best_") else "evaluated" if name.startswith("evaluated_") else "latest"
 
 
 def has_metric(task: str, metric: str) -> bool:

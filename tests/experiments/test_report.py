@@ -226,11 +226,15 @@ def test_an_evaluation_of_the_best_checkpoint_is_a_setting_of_its_own_not_the_re
     (run / "eval" / name.format("best_0000080")).write_text(json.dumps(dict(new, checkpoint="best_0000080",
                                                                            success_rate=0.9)))
     (run / "eval" / name.format("episode_0000100")).write_text(json.dumps(dict(new, checkpoint="episode_0000100")))
+    kept = name.format("evaluated_0000060").replace("100ep", "200ep")  # run.keep_evaluated: never the latest
+    (run / "eval" / kept).write_text(json.dumps(dict(new, checkpoint="evaluated_0000060", episodes=200, success_rate=0.7)))
     assert final_evaluation(run)["success_rate"] == 0.2  # the latest checkpoint's, newer names and older alike
     write_report([run], tmp_path / "report")
     rows = json.loads((tmp_path / "report" / "table.json").read_text())["rows"]
     best = [row for row in rows if row["checkpoint"] == "best"]
     assert len(best) == 1 and best[0]["success_rate"]["mean"] == 0.9 and not best[0]["reference"]
+    evaluated = [row for row in rows if row["checkpoint"] == "evaluated"]
+    assert len(evaluated) == 1 and evaluated[0]["success_rate"]["mean"] == 0.7 and not evaluated[0]["reference"]
 
 
 def test_the_best_checkpoint_can_be_the_reference_and_table1_says_so(tmp_path):
