@@ -1,7 +1,7 @@
 """The main job of the README: a trained ReLMoGen-R policy solving PushDoorNav, no training first.
 
 The policy ships with the package (``relmogen/policies/PushDoorNav-relmogen-r``: the actor
-of one of the runs in ``results/pushdoornav-first``, see its ``provenance.json``). It is run
+of seed 2 of ``results/table1/PushDoorNav__relmogen-r``, see its ``provenance.json``). It is run
 deterministically with arm collision checking on, as at evaluation; the metrics are the ones
 ``relmogen eval`` prints and the first episode is written as a GIF of a third-person view, or,
 with ``video``, as the annotated recording of ``relmogen eval --video``.
