@@ -277,9 +277,10 @@ def _write_folder(root: Path, name: str, pointer: str, write, state: dict, prune
     shutil.rmtree(folder, ignore_errors=True)
     os.replace(staging, folder)
     _publish(root, folder.name, pointer)
-    for old in root.glob(name.split("_")[0] + "_*") if prune else ():
-        if old.name != folder.name:
-            shutil.rmtree(old, ignore_errors=True)
+    if prune:
+        for old in root.glob(name.split("_")[0] + "_*"):
+            if old.name != folder.name:
+                shutil.rmtree(old, ignore_errors=True)
     return folder
 
 
