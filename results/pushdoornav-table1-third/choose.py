@@ -3,7 +3,7 @@ evaluation (eval_during_training.jsonl, seeds 20000-20019) and the 30 of validat
 seeds 20020-20049), by success rate, then mean return (the trainer's rule). Prints a table and
 writes validation.json beside this script.
 
-    python results/table1/PushDoorNav__relmogen-r/choose.py RUN_DIR...
+    python results/pushdoornav-table1-third/choose.py RUN_DIR...
 """
 import json
 import sys
