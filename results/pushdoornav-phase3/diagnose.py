@@ -2,7 +2,7 @@
 collision checking on) and writes one JSON line per episode: its metrics and each subgoal's type,
 plan outcome and reason, so failed episodes can be read and counted.
 
-    python results/pushdoornav-failures/diagnose.py RUN --checkpoint best --episodes 50 --seed 20000 --out F.jsonl
+    python results/pushdoornav-phase3/diagnose.py RUN --checkpoint best --episodes 50 --seed 20000 --out F.jsonl
 """
 
 from __future__ import annotations
