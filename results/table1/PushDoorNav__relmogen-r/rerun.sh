@@ -9,7 +9,7 @@ set -euo pipefail
 cd /work/main && source .venv/bin/activate
 SEED=$1; P2=$2; EVAL=${3:-20}
 OUT=runs/noop-p2; [ "$EVAL" = 20 ] || OUT=runs/noop$EVAL-p2
-phase1=$(ls -d runs/clear-p1/PushDoorNav__relmogen-r__${SEED}__2* 2>/dev/null | tail -1)
+phase1=$(ls -d runs/clear-p1/PushDoorNav__relmogen-r__${SEED}__2* 2>/dev/null | tail -1 || true)
 if [ -z "$phase1" ] || [ ! -f "$phase1/done.json" ]; then
   relmogen train --task PushDoorNav --algo relmogen-r --seed $SEED --preset cpu --episodes 1000 \
     --set env.subgoal_feedback=true --set env.base_goal_clearance=0.10 --out runs/clear-p1 --quiet
