@@ -110,7 +110,7 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.config import resolve_config
     from relmogen.experiments.env_workers import EnvWorkerError
-    from relmogen.experiments.train import resume, run_config_file, train
+    from relmogen.experiments.train import TrainingStopped, resume, run_config_file, train
 
     overrides = args.set + ([f"env.robot={args.robot}"] if args.robot else [])
     try:
@@ -137,8 +137,14 @@ def cmd_train(args: argparse.Namespace) -> int:
     except EnvWorkerError as error:  # checkpoint written; one line that says how to continue
         print(f"relmogen: error: {error}", file=sys.stderr)
         return 1
+    except TrainingStopped as stopped:
+        print(f"relmogen: {stopped}", file=sys.stderr)
+        return STOPPED_EXIT_CODE
     print(run_dir)
     return 0
+
+
+STOPPED_EXIT_CODE = 130  # the shell's code for a process ended by SIGINT
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:

@@ -8,7 +8,9 @@ and the replay (gigabytes for SGP-R) every ``run.replay_every_episodes``. Each i
 fresh folder and published by atomically replacing ``checkpoints/latest`` /
 ``checkpoints/latest_replay``, so ``kill -9`` at any moment leaves the previous ones intact;
 ``--resume RUN_DIR`` continues from them: at most one model interval of learning is lost, and
-the transitions collected since the last replay save. ``checkpoints/best`` names, the same way,
+the transitions collected since the last replay save. A stop asked for (Ctrl-C: SIGINT, or
+SIGTERM) ends the run after the current environment step and writes both, so nothing is lost,
+then raises ``TrainingStopped`` (a second signal interrupts at once, without saving). ``checkpoints/best`` names, the same way,
 a copy of the model (no replay) at the best periodic evaluation so far; its ``state.json`` holds
 that evaluation.
 """
@@ -20,6 +22,8 @@ import difflib
 import json
 import os
 import shutil
+import signal
+import threading
 import time
 from pathlib import Path
 
@@ -304,6 +308,33 @@ def process_tree_cpu_seconds() -> float:
 
 
 # --------------------------------------------------------------------------- callback
+class StopRequest:
+    """While entered (in the main thread), SIGINT and SIGTERM ask training to stop: the first
+    sets ``requested``, which ``TrainingMonitor`` turns into a stop after the current environment
+    step; a second raises ``KeyboardInterrupt`` at once. The previous handlers come back on exit."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.requested = False
+        self._previous: dict = {}
+
+    def __enter__(self) -> StopRequest:
+        if threading.current_thread() is threading.main_thread():  # signal handlers live there only
+            self._previous = {signum: signal.signal(signum, self._handle) for signum in self.SIGNALS}
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        for signum, handler in self._previous.items():
+            signal.signal(signum, handler)
+        self._previous = {}
+
+    def _handle(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+
 class TrainingMonitor(BaseCallback):
     """Counts episodes; logs, checkpoints, evaluates and stops on the episode/time budget."""
 
@@ -325,6 +356,7 @@ class TrainingMonitor(BaseCallback):
         self.progress = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[stats]}"),
                                  TimeElapsedColumn(), disable=quiet)
         self.bar = None
+        self.stop_request = StopRequest()
 
     @property
     def wall_time(self) -> float:
@@ -353,7 +385,7 @@ class TrainingMonitor(BaseCallback):
                 sums[term] = sums.get(term, 0.0) + value
             if done and "episode" in info:
                 self._record_episode(info, self.subgoals.pop(index, []), self.term_sums.pop(index))
-        return not self._budget_spent()
+        return not (self._budget_spent() or self.stop_request.requested)
 
     def _budget_spent(self) -> bool:
         hours, cpu_hours = self.config.max_hours, self.config.max_cpu_hours
@@ -595,13 +627,30 @@ def _truncate_episode_log(path: Path, episodes: int) -> None:
         writer.writerows(rows)
 
 
+class TrainingStopped(Exception):
+    """Training stopped on request (SIGINT, or SIGTERM through the CLI) after writing a checkpoint
+    with the replay at ``episodes``."""
+
+    def __init__(self, run_dir: Path, episodes: int):
+        super().__init__(run_dir, episodes)
+        self.run_dir, self.episodes = run_dir, episodes
+
+    def __str__(self) -> str:
+        return (f"stopped at episode {self.episodes}; model and replay saved; "
+                f"continue with: relmogen train --resume {self.run_dir}")
+
+
 def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) -> Path:
     monitor = TrainingMonitor(run_dir, config, state, quiet)
     try:
         if not monitor._budget_spent():  # else the latest checkpoint already holds everything
-            model.learn(total_timesteps=10**12, callback=monitor, reset_num_timesteps=state["timesteps"] == 0,
-                        progress_bar=False)
-            monitor.checkpoint()
+            with monitor.stop_request:
+                model.learn(total_timesteps=10**12, callback=monitor, reset_num_timesteps=state["timesteps"] == 0,
+                            progress_bar=False)
+            stopped = monitor.stop_request.requested
+            monitor.checkpoint(with_replay=stopped)  # a stop asked for keeps the replay too
+            if stopped:
+                raise TrainingStopped(run_dir, state["episodes"])
     except EnvWorkerError as error:  # a worker died or hung: keep what was learned, then report it
         monitor.progress.stop()
         monitor.checkpoint(with_replay=True)

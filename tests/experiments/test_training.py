@@ -196,20 +196,29 @@ def test_resuming_an_older_episode_log_keeps_its_rows_and_adds_the_new_columns(t
     assert [(r["episode"], r["return"], r["base_fraction"]) for r in rows] == [("1", "0.5", ""), ("2", "0.7", "")]
 
 
-def kill_9_when(cmd: list[str], out: Path, ready, timeout_s: float = 240) -> Path:
-    """Start a training command, SIGKILL it as soon as ``ready(run_dir)``; returns the run dir."""
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+def signal_when(cmd: list[str], out: Path, ready, sig: int = signal.SIGKILL,
+                timeout_s: float = 240) -> tuple[Path, int, str]:
+    """Start a training command and send it ``sig`` as soon as ``ready(run_dir)``; returns the run
+    dir, the command's exit code and its stderr."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + timeout_s
     try:
         while time.time() < deadline:
             runs = list(out.glob("PointNav__*"))
             if runs and ready(runs[0]):
-                return runs[0]
+                os.kill(proc.pid, sig)
+                _, stderr = proc.communicate(timeout=120)
+                return runs[0], proc.returncode, stderr
             time.sleep(0.05)
-        raise AssertionError("the run never reached the state to kill it in")
+        raise AssertionError("the run never reached the state to signal it in")
     finally:
-        os.kill(proc.pid, signal.SIGKILL)
-        proc.wait()
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+def kill_9_when(cmd: list[str], out: Path, ready) -> Path:
+    return signal_when(cmd, out, ready)[0]
 
 
 def test_resume_after_kill_9_loses_at_most_one_checkpoint_interval(tmp_path):
@@ -241,6 +250,22 @@ def test_kill_9_between_replay_saves_keeps_the_newer_model_and_the_older_replay(
     # that saved it, so the saving step's own transition is not in it)
     assert replay.size() == replay_state["timesteps"] - 1
     assert replay.observations["depth"].dtype == np.float16 and replay.observations["rgb"].dtype == np.uint8
+    resume(run_dir, quiet=True, episodes=model_state["episodes"] + 1)
+    assert episodes_in(run_dir) == list(range(1, model_state["episodes"] + 2))
+
+
+def test_sigterm_stops_with_the_model_and_the_replay_saved_and_resume_continues(tmp_path):
+    cmd = [sys.executable, "-m", "relmogen.cli", "train", "--task", "PointNav", "--algo", "relmogen-r", "--preset",
+           "tiny", "--episodes", "1000", "--out", str(tmp_path), "--quiet", "--set", "run.eval_every_episodes=1000",
+           "--set", "run.replay_every_episodes=1000", "--set", "algo.buffer_size=1000"]
+    run_dir, exit_code, stderr = signal_when(
+        cmd, tmp_path, lambda run: latest_checkpoint(run) is not None and len(episodes_in(run)) >= 2, signal.SIGTERM)
+    assert exit_code == 130, stderr
+    model_state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
+    replay_state = json.loads((latest_replay(run_dir).parent / "state.json").read_text())
+    assert f"stopped at episode {model_state['episodes']}; model and replay saved" in stderr
+    assert replay_state == model_state and model_state["episodes"] >= 2  # the replay's only save: the stop's
+    assert load_from_pkl(latest_replay(run_dir)).size() >= model_state["episodes"]
     resume(run_dir, quiet=True, episodes=model_state["episodes"] + 1)
     assert episodes_in(run_dir) == list(range(1, model_state["episodes"] + 2))
 
