@@ -451,7 +451,9 @@ class RelmogenDQN(DQN):
             self._oracle_labeller.record(self.logger)
 
     def _gradient_step(self, data) -> dict[str, float]:
-        """One update; returns the Huber TD loss (``loss``) and the value of each active loss term."""
+        """One update; returns the Huber TD loss (``loss``), the mean Q of the taken actions
+        (``q_taken``) and of their targets (``target``), which show a diverging Q function before
+        the returns do, and the value of each active loss term."""
         targets = self.double_dqn_targets(data)
         q_values = self.q_net(data.observations)
         current = q_values.gather(1, data.actions.long())
@@ -465,4 +467,5 @@ class RelmogenDQN(DQN):
         loss.backward()
         th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
         self.policy.optimizer.step()
-        return {"loss": td_loss.item(), **{name: value.item() for name, value in terms.items()}}
+        return {"loss": td_loss.item(), "q_taken": current.mean().item(), "target": targets.mean().item(),
+                **{name: value.item() for name, value in terms.items()}}

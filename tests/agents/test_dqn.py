@@ -112,6 +112,22 @@ def test_double_dqn_target_uses_online_argmax_and_target_value(model):
     np.testing.assert_allclose(n_step.numpy(), expected.numpy(), rtol=1e-5, atol=1e-6)
 
 
+def test_an_update_reports_the_q_of_the_taken_actions_and_of_their_targets(model):
+    n = 4
+    data = QMapReplaySamples(observations=random_batch(model.observation_space, n, seed=5),
+                             actions=th.tensor([[0], [7], [300], [1000]]),
+                             next_observations=random_batch(model.observation_space, n, seed=6),
+                             dones=th.tensor([[1.0], [0.0], [1.0], [0.0]]), rewards=th.tensor([[1.0], [2.0], [3.0], [4.0]]))
+    with th.no_grad():
+        taken = model.q_net(data.observations).gather(1, data.actions)
+        targets = model.double_dqn_targets(data)
+    model.policy.set_training_mode(True)
+    step = model._gradient_step(data)
+    assert step["q_taken"] == pytest.approx(float(taken.mean()), rel=1e-5)
+    assert step["target"] == pytest.approx(float(targets.mean()), rel=1e-5)
+    assert step["loss"] > 0
+
+
 # ------------------------------------------------------------- (c) masked exploration
 def assert_base_actions_free(actions: np.ndarray, masks: np.ndarray) -> int:
     """Every base action lies on an allowed base cell and every arm action on an allowed arm
