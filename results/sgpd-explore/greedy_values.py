@@ -57,8 +57,8 @@ def main() -> None:
             arm = [s for s in steps if s["part"] == "arm"]
             print(json.dumps({"seed": args.seed + episode, "steps": len(steps), "arm": len(arm),
                               "return": round(sum(s["reward"] for s in steps), 3),
-                              "mean_base_q": round(float(np.mean([s["base_q"] for s in steps])), 3),
-                              "mean_arm_q": round(float(np.mean([s["arm_q"] for s in steps])), 3),
+                              "mean_base_q": round(float(np.nanmean([s["base_q"] for s in steps])), 3),
+                              "mean_arm_q": round(float(np.nanmean([s["arm_q"] for s in steps])), 3),
                               "arm_reward": round(sum(s["reward"] for s in arm), 3),
                               "repeats": sum(s["repeat"] for s in steps)}))
     finally:
@@ -66,8 +66,8 @@ def main() -> None:
     arm = [s for s in all_steps if s["part"] == "arm"]
     print(json.dumps({"summary": True, "steps": len(all_steps), "arm_share": len(arm) / len(all_steps),
                       "arm_steps_reward_mean": float(np.mean([s["reward"] for s in arm])) if arm else None,
-                      "base_q_mean": float(np.mean([s["base_q"] for s in all_steps])),
-                      "arm_q_mean": float(np.mean([s["arm_q"] for s in all_steps])),
+                      "base_q_mean": float(np.nanmean([s["base_q"] for s in all_steps])),
+                      "arm_q_mean": float(np.nanmean([s["arm_q"] for s in all_steps])),
                       "base_q_below_zero": float(np.mean([s["base_q"] < 0 for s in all_steps])),
                       "repeat_share": float(np.mean([s["repeat"] for s in all_steps]))}))
 
