@@ -1,5 +1,6 @@
-"""TD loss and training return against episodes for relmogen-d runs, from their TensorBoard logs
-and episodes.csv: does the Q function diverge once epsilon reaches its floor?
+"""TD loss, Q level and training return against episodes for relmogen-d runs, from their
+TensorBoard logs and episodes.csv: does the Q function diverge once epsilon reaches its floor?
+(The Q level, ``losses/q_taken``, is logged by runs started or resumed from 2026-12-04 on.)
 
     python results/sgpd-explore/loss_curves.py RUN [RUN ...] --out results/sgpd-explore/loss_curves.png
 """
@@ -53,16 +54,19 @@ def main() -> None:
     parser.add_argument("runs", type=Path, nargs="+")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
-    figure, (loss_axis, return_axis) = plt.subplots(1, 2, figsize=(11, 4))
+    figure, (loss_axis, q_axis, return_axis) = plt.subplots(1, 3, figsize=(16, 4))
     for run in args.runs:
         label = f"{run.parent.name}/{run.name.split('__')[2]}"
         episodes, loss = scalar_by_episode(run, "losses/loss")
         line, = loss_axis.semilogy(episodes, loss, alpha=0.25)
         loss_axis.semilogy(episodes, rolling_median(loss), color=line.get_color(), label=f"{label} (median of {SMOOTH})")
-        return_axis.plot(*windowed_return(run), marker="o", label=label)
+        q_episodes, q_taken = scalar_by_episode(run, "losses/q_taken")
+        q_axis.plot(q_episodes, rolling_median(q_taken), color=line.get_color(), label=label)
+        return_axis.plot(*windowed_return(run), marker="o", color=line.get_color(), label=label)
     loss_axis.set(xlabel="training episode", ylabel="logged loss (Huber TD, plus any add-on term)", title="loss")
+    q_axis.set(xlabel="training episode", ylabel=f"mean Q of the taken actions (median of {SMOOTH})", title="Q level")
     return_axis.set(xlabel="training episode", ylabel=f"mean return per {WINDOW} episodes", title="training return")
-    for axis in (loss_axis, return_axis):
+    for axis in (loss_axis, q_axis, return_axis):
         axis.grid(alpha=0.3)
         axis.legend(fontsize=8)
     figure.tight_layout()
