@@ -112,17 +112,20 @@ def test_double_dqn_target_uses_online_argmax_and_target_value(model):
     np.testing.assert_allclose(n_step.numpy(), expected.numpy(), rtol=1e-5, atol=1e-6)
 
 
-def test_an_update_reports_the_q_of_the_taken_actions_and_of_their_targets(model):
+def test_an_update_reports_the_q_of_the_taken_actions_and_of_their_targets():
+    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, batch_size=4, learning_starts=0,
+                      policy_kwargs=SMALL_NET, seed=0)  # its own model: the update changes the weights
     n = 4
-    data = QMapReplaySamples(observations=random_batch(model.observation_space, n, seed=5),
+    data = QMapReplaySamples(observations=random_batch(dqn.observation_space, n, seed=5),
                              actions=th.tensor([[0], [7], [300], [1000]]),
-                             next_observations=random_batch(model.observation_space, n, seed=6),
+                             next_observations=random_batch(dqn.observation_space, n, seed=6),
                              dones=th.tensor([[1.0], [0.0], [1.0], [0.0]]), rewards=th.tensor([[1.0], [2.0], [3.0], [4.0]]))
     with th.no_grad():
-        taken = model.q_net(data.observations).gather(1, data.actions)
-        targets = model.double_dqn_targets(data)
-    model.policy.set_training_mode(True)
-    step = model._gradient_step(data)
+        taken = dqn.q_net(data.observations).gather(1, data.actions)
+        targets = dqn.double_dqn_targets(data)
+    dqn.policy.set_training_mode(True)
+    step = dqn._gradient_step(data)
+    dqn.env.close()
     assert step["q_taken"] == pytest.approx(float(taken.mean()), rel=1e-5)
     assert step["target"] == pytest.approx(float(targets.mean()), rel=1e-5)
     assert step["loss"] > 0
