@@ -8,8 +8,9 @@ preset's ``n_envs`` workers run these in parallel). For SGP-R the same update is
 with SB3's stock SAC (separate encoders for actor, critic and target), which is the cost our
 shared encoder avoids. For SGP-D the replay memory is reported too (bytes of the allocated
 arrays, per 1e4 transitions and at the preset's buffer size), and the update cost at each
-(image size, Q-map side) of ``QMAP_SETTINGS``. Then one real training run each of relmogen-r
-and relmogen-d (``bench_training_run``) gives episodes per CPU-hour.
+(image size, Q-map side) of ``QMAP_SETTINGS`` and in float32 against bfloat16 autocast
+(``algo.qmap_bf16``). Then one real training run each of relmogen-r and relmogen-d, and of
+relmogen-d under bfloat16 (``bench_training_run``), gives episodes per CPU-hour.
 """
 
 from __future__ import annotations
@@ -106,13 +107,17 @@ def bench_train(task: str = "PushDoorNav", presets: tuple[str, ...] = ("cpu", "p
             if advance is not None:
                 advance()
     qmap_resolutions = bench_qmap_resolutions(task, updates)
+    qmap_precisions = bench_qmap_precisions(task, updates)
     training_run = bench_training_run(task, "cpu", subgoals)
     training_run_d = bench_training_run(task, "cpu", subgoals, algo="relmogen-d")
+    training_run_d_bf16 = bench_training_run(task, "cpu", subgoals, algo="relmogen-d", overrides=BF16)
     return {"task": task, "updates_timed": updates, "runs": runs, "qmap_resolutions": qmap_resolutions,
-            "training_run": training_run, "training_run_relmogen_d": training_run_d,
+            "qmap_precisions": qmap_precisions, "training_run": training_run,
+            "training_run_relmogen_d": training_run_d, "training_run_relmogen_d_bf16": training_run_d_bf16,
             "episodes_per_cpu_hour": training_run["episodes_per_cpu_hour"],
             "subgoals_per_cpu_s": training_run["subgoals_per_cpu_s"],
-            "relmogen_d_episodes_per_cpu_hour": training_run_d["episodes_per_cpu_hour"]}
+            "relmogen_d_episodes_per_cpu_hour": training_run_d["episodes_per_cpu_hour"],
+            "relmogen_d_bf16_episodes_per_cpu_hour": training_run_d_bf16["episodes_per_cpu_hour"]}
 
 
 QMAP_SETTINGS = ((64, 16), (64, 32), (128, 32))  # (image px, Q): the old cpu head, the cpu preset, the paper's
@@ -125,6 +130,20 @@ def bench_qmap_resolutions(task: str, updates: int, preset: str = "cpu") -> list
                       overrides=(f"env.image_size={image}", f"env.qmap_size={q}")) for image, q in QMAP_SETTINGS]
     for row in rows:  # CPU time: the machine may be shared, and the learner runs one torch thread
         row["update_cost_vs_64px_q16"] = round(row["update_cpu_s"] / rows[0]["update_cpu_s"], 3)
+    return rows
+
+
+BF16 = ("algo.qmap_bf16=true",)
+
+
+def bench_qmap_precisions(task: str, updates: int, preset: str = "cpu") -> list[dict]:
+    """relmogen-d update cost per batch in float32 and under bfloat16 autocast (``algo.qmap_bf16``),
+    the preset's network with the skip head, in the same process."""
+    skip = ("algo.qmap_skip=true",)
+    rows = [bench_one(task, "relmogen-d", preset, updates, overrides=skip + extra) for extra in ((), BF16)]
+    for row, bf16 in zip(rows, (False, True)):
+        row["qmap_bf16"] = bf16
+        row["update_cost_vs_float32"] = round(row["update_cpu_s"] / rows[0]["update_cpu_s"], 3)
     return rows
 
 
@@ -146,7 +165,7 @@ class _Stopwatch:
 
 
 def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals: int = 1000,
-                       out: str | None = None, algo: str = "relmogen-r") -> dict:
+                       out: str | None = None, algo: str = "relmogen-r", overrides: tuple[str, ...] = ()) -> dict:
     """One ``relmogen train`` run of ``algo`` (trainer and environment workers as training
     makes them) for about ``subgoals`` subgoals past the preset's ``learning_starts``. CPU time
     (psutil, the process tree) and the trainer's wall-clock shares are counted from the first
@@ -156,7 +175,7 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
 
     from relmogen.experiments import train as training
 
-    config = _bench_run_config(task, preset, subgoals, algo)
+    config = _bench_run_config(task, preset, subgoals, algo, overrides)
     with tempfile.TemporaryDirectory(dir=out) as folder:
         run_dir = training.new_run_dir(Path(folder), config)
         model = training.build_model(config, training.make_training_env(config))
@@ -170,7 +189,7 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
     (cpu_start, wall_start, steps_start), (cpu_end, wall_end, steps_end, seconds) = marks["start"], marks["end"]
     cpu, wall, steps = cpu_end - cpu_start, wall_end - wall_start, steps_end - steps_start
     return {
-        "task": task, "algo": algo, "preset": preset, "n_envs": config.env.n_envs,
+        "task": task, "algo": algo, "preset": preset, "n_envs": config.env.n_envs, "overrides": list(overrides),
         **({"qmap_size": model.q} if algo == "relmogen-d" else {}),
         "subgoals_timed": int(steps), "episodes_timed": episodes, "cpu_s": round(cpu, 2), "wall_s": round(wall, 2),
         "subgoals_per_cpu_s": round(steps / cpu, 3),
@@ -180,11 +199,11 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
     }
 
 
-def _bench_run_config(task: str, preset: str, subgoals: int, algo: str = "relmogen-r"):
+def _bench_run_config(task: str, preset: str, subgoals: int, algo: str = "relmogen-r", overrides: tuple[str, ...] = ()):
     from relmogen.tasks import task_class
 
     config = resolve_config(task, algo, preset=preset, episodes=1,
-                            overrides=["run.eval_every_episodes=1000000"])
+                            overrides=["run.eval_every_episodes=1000000", *overrides])
     length = config.env.episode_steps or task_class(task).subgoal_steps  # random policies rarely end early
     return config.model_copy(update={"episodes": -(-(config.algo_params.learning_starts + subgoals) // length)})
 

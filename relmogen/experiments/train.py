@@ -181,7 +181,7 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
     params = config.algo_params
     policy_kwargs = {key: value for key, value in
                      (("widths", params.qmap_widths), ("head_width", params.qmap_head_width),
-                      ("skip", params.qmap_skip)) if value is not None}
+                      ("skip", params.qmap_skip), ("bf16", params.qmap_bf16)) if value is not None}
     optional = {key: getattr(params, key) for key in
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
                  "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels")

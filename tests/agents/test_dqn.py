@@ -55,13 +55,14 @@ def test_flat_q_values_follow_the_env_index_order(model, skip):
         assert th.equal(q_values[:, index], maps[:, channel, i, j])
 
 
-def test_skip_connections_survive_save_and_load(tmp_path):
+@pytest.mark.parametrize("setting", ["skip", "bf16"])
+def test_network_settings_survive_save_and_load(tmp_path, setting):
     dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, learning_starts=0,
-                      policy_kwargs=dict(SMALL_NET, skip=True), seed=0)
+                      policy_kwargs=dict(SMALL_NET, **{setting: True}), seed=0)
     dqn.save(tmp_path / "model.zip")
     loaded = RelmogenDQN.load(tmp_path / "model.zip")
     dqn.env.close()
-    assert loaded.q_net.net.skip and loaded.q_net_target.net.skip
+    assert getattr(loaded.q_net.net, setting) and getattr(loaded.q_net_target.net, setting)
     obs = random_batch(dqn.observation_space, 2)
     with th.no_grad():
         assert th.equal(dqn.q_net(obs), loaded.q_net(obs))
@@ -79,6 +80,22 @@ def test_channels_last_and_channels_first_observations_agree():
     obs_last = dict(obs, rgb=obs["rgb"].permute(0, 2, 3, 1), local_map=obs["local_map"].permute(0, 2, 3, 1))
     with th.no_grad():
         assert th.allclose(net_first(obs), net_last(obs_last))
+
+
+@pytest.mark.parametrize("skip", [False, True])
+def test_bfloat16_body_gives_float32_q_values_close_to_the_float32_network(skip):
+    space = transposed_observation_space(SIZE)
+    exact, reduced = QMapNetwork(space, **SMALL_NET, skip=skip), QMapNetwork(space, **SMALL_NET, skip=skip, bf16=True)
+    reduced.load_state_dict(exact.state_dict())
+    obs = random_batch(space, 4)
+    q_reduced = reduced(obs)
+    assert q_reduced.dtype == th.float32
+    with th.no_grad():
+        q_exact = exact(obs)
+    assert not th.equal(q_reduced, q_exact)  # the body did run in bfloat16
+    assert th.allclose(q_reduced, q_exact, atol=0.05 * q_exact.abs().max().item())
+    q_reduced.sum().backward()
+    assert all(p.grad is not None and p.grad.dtype == th.float32 for p in reduced.parameters())
 
 
 # --------------------------------------------------------------- (b) Double DQN target

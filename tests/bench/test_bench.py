@@ -145,3 +145,13 @@ def test_qmap_resolution_rows_compare_update_costs_against_the_first(monkeypatch
     assert rows[0]["update_cost_vs_64px_q16"] == 1.0
     assert rows[1]["update_cost_vs_64px_q16"] == pytest.approx(rows[1]["update_cpu_s"] / rows[0]["update_cpu_s"],
                                                                rel=0.01, abs=1e-3)
+
+
+def test_qmap_precision_rows_compare_bfloat16_against_float32():
+    from relmogen.bench import train_bench
+
+    rows = train_bench.bench_qmap_precisions("PointNav", updates=1, preset="tiny")
+    assert [row["qmap_bf16"] for row in rows] == [False, True]
+    assert rows[0]["update_cost_vs_float32"] == 1.0
+    assert rows[1]["update_cost_vs_float32"] == pytest.approx(rows[1]["update_cpu_s"] / rows[0]["update_cpu_s"],
+                                                             rel=0.01, abs=1e-3)
