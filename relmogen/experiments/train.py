@@ -23,6 +23,7 @@ import json
 import os
 import shutil
 import signal
+import sys
 import threading
 import time
 from pathlib import Path
@@ -568,8 +569,10 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
         model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device),
                                          **changed)  # SB3 rebuilds schedules and buffer from these
         replay = latest_replay(run_dir)
-        if replay is not None:  # else (killed before its first save) the replay starts empty
+        if replay is not None:
             model.load_replay_buffer(replay)
+        else:  # killed before its first save, or carried to another machine without it
+            refill_before_learning(run_dir, model, config, state)
         resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
     add_missing_demonstrations(run_dir, config, model, state, quiet)
     _truncate_episode_log(run_dir / "episodes.csv", state["episodes"])
@@ -598,6 +601,20 @@ def add_missing_demonstrations(run_dir: Path, config: TrainConfig, model, state:
 
 
 RESUME_LOG = "resumes.jsonl"
+
+
+def refill_before_learning(run_dir: Path, model, config: TrainConfig, state: dict) -> None:
+    """A run resumed without a replay buffer first collects ``learning_starts`` transitions, as a
+    new run does (with random actions), instead of fitting batches drawn from its first few; the
+    refill is logged to ``resumes.jsonl``."""
+    if model.num_timesteps == 0:
+        return
+    model.learning_starts = model.num_timesteps + config.algo_params.learning_starts
+    print(f"{run_dir}: no saved replay buffer; collecting {config.algo_params.learning_starts} transitions "
+          "before learning resumes", file=sys.stderr)
+    with open(run_dir / RESUME_LOG, "a") as handle:
+        handle.write(json.dumps({"from_episode": state["episodes"], "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                                 "replay": "empty", "learning_starts": model.learning_starts}) + "\n")
 
 
 def _log_resume(run_dir: Path, state: dict | None, updates: dict, overrides: list[str]) -> None:

@@ -4,8 +4,9 @@
 #                            (checkpoints/<latest>/model.zip + state.json, about 8 MB; the replay,
 #                            3 GB at 5e4 transitions, stays behind)
 #   carry.sh restore DEST/<run> OUT   copies it back into OUT/<run>, ready for `relmogen train --resume`;
-#                            the resumed run starts with an empty replay (train.resume, "killed before
-#                            its first save"), which the policy refills at its current epsilon
+#                            the resumed run starts with an empty replay: it collects the preset's
+#                            learning_starts transitions (random actions, as a new run does) before it
+#                            learns again, then refills it at its current epsilon (resumes.jsonl says so)
 set -euo pipefail
 case $1 in
   save)

@@ -5,6 +5,7 @@ import json
 import pickle
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -118,6 +119,21 @@ def test_resume_with_a_changed_schedule_grows_the_replay_buffer_and_logs_the_cha
     with pytest.raises(ValueError, match="when resuming"):
         resume(run_dir, quiet=True, overrides=["env.image_size=128"])
     assert (run_dir / "done.json").is_file()  # a refused change leaves the run as it was
+
+
+def test_a_run_resumed_without_its_replay_collects_learning_starts_transitions_before_learning(tmp_path):
+    config = resolve_config("PointNav", "relmogen-d", seed=0, preset="tiny", episodes=2)
+    run_dir = train(config, tmp_path, quiet=True)
+    for folder in (run_dir / "checkpoints").glob("replay_*"):  # carried to a new machine without it
+        shutil.rmtree(folder)
+    (run_dir / "checkpoints" / "latest_replay").unlink()
+    timesteps = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())["timesteps"]
+    resume(run_dir, quiet=True, episodes=3)
+    (entry,) = [entry for entry in read_resume_log(run_dir) if "replay" in entry]
+    assert entry["replay"] == "empty" and entry["from_episode"] == 2
+    assert entry["learning_starts"] == timesteps + config.algo_params.learning_starts
+    assert RelmogenDQN.load(latest_checkpoint(run_dir) / "model.zip").learning_starts == entry["learning_starts"]
+    assert episodes_in(run_dir) == [1, 2, 3]
 
 
 def test_demonstrations_are_added_once_and_topped_up_on_resume(tmp_path):
