@@ -52,6 +52,7 @@ from stable_baselines3.dqn.policies import DQNPolicy
 from torch.nn import functional as F
 
 from relmogen.agents.addons import LossTerm
+from relmogen.agents.addons.boltzmann_exploration import boltzmann_sample
 from relmogen.agents.addons.conservative import conservative_term
 from relmogen.agents.addons.demonstration_margin import ExpertLabels, demonstration_margin_term
 from relmogen.agents.addons.kept_demonstrations import DemonstrationRows
@@ -317,7 +318,7 @@ class QMapReplayBuffer(DemonstrationRows, ExpertLabels, NStepReturns, CellMaskRe
 class RelmogenDQN(DQN):
     """SB3 DQN + Double DQN targets + mask-aware exploration and greedy choice (module doc); the
     add-ons' arguments (``conservative_weight``, ``demo_margin_weight``, ``n_step_returns``,
-    ``oracle_labels``) are described in ``relmogen/agents/addons``."""
+    ``oracle_labels``, ``exploration_temperature``) are described in ``relmogen/agents/addons``."""
 
     def __init__(self, policy=QMapDQNPolicy, env=None, *, subgoal_parts: tuple[str, ...] = ALL_PARTS,
                  mask_arm: bool = True,
@@ -326,7 +327,8 @@ class RelmogenDQN(DQN):
                  max_grad_norm: float = 10.0, exploration_initial_eps: float = 0.8,
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
                  conservative_weight: float = 0.0, demo_margin_weight: float = 0.0, n_step_returns: int = 1,
-                 oracle_labels: bool = False, replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
+                 oracle_labels: bool = False, exploration_temperature: float = 0.0,
+                 replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
         self.mask_arm = bool(mask_arm)
         self.exploration_steps = exploration_steps
@@ -334,6 +336,7 @@ class RelmogenDQN(DQN):
         self.demo_margin_weight = float(demo_margin_weight)
         self.n_step_returns = int(n_step_returns)  # not SB3's ``n_steps``: that one wants SB3's own buffer
         self.oracle_labels = bool(oracle_labels)
+        self.exploration_temperature = float(exploration_temperature)
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -418,12 +421,16 @@ class RelmogenDQN(DQN):
         if excluded:
             allowed = without_actions(allowed, excluded)
         explore = np.zeros(n, bool) if deterministic else np.random.rand(n) < self.exploration_rate
+        boltzmann = self.exploration_temperature > 0
         actions = np.empty(n, dtype=np.int64)
-        if not explore.all():
+        if not explore.all() or (explore.any() and boltzmann):
             with th.no_grad():
-                actions[:] = masked_argmax(self.q_net(obs), allowed).cpu().numpy()
+                q_values = self.q_net(obs)
+            actions[:] = masked_argmax(q_values, allowed).cpu().numpy()
         if explore.any():
-            actions[explore] = sample_allowed(allowed[th.as_tensor(explore)].cpu().numpy())
+            rows = th.as_tensor(explore)
+            actions[explore] = (boltzmann_sample(q_values[rows], allowed[rows], self.exploration_temperature)
+                                if boltzmann else sample_allowed(allowed[rows].cpu().numpy()))
         return (actions if vectorized else actions[0]), state
 
     # -------------------------------------------------------------- learning

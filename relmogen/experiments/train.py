@@ -185,7 +185,8 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
                       ("skip", params.qmap_skip), ("bf16", params.qmap_bf16)) if value is not None}
     optional = {key: getattr(params, key) for key in
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-                 "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels")
+                 "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels",
+                 "exploration_temperature")
                 if getattr(params, key) is not None}
     return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                        demo_margin_weight=params.demo_margin_weight,

@@ -3,14 +3,17 @@
 # episodes) with one stabiliser against the Q divergence measured in ButtonDoorNav seed 0
 # (COMMANDS.md, seventh session): VARIANT = cql (algo.conservative_weight=1), slow (learning
 # rate 1e-4, target copy every 4,096 transitions instead of 1,024) or gamma (discount 0.95
-# instead of 0.99: a 20-subgoal horizon for 25-subgoal episodes).  VARIANT TASK SEED CPU_HOURS
+# instead of 0.99: a 20-subgoal horizon for 25-subgoal episodes); boltzmann is gamma with exploratory
+# actions drawn from softmax(Q / 1) instead of uniformly (algo.exploration_temperature=1, eighth
+# session).  VARIANT TASK SEED CPU_HOURS
 set -euo pipefail
 VARIANT=$1; TASK=$2; SEED=$3; HOURS=$4; shift 4
 case $VARIANT in
   cql) extra=(--set algo.conservative_weight=1.0) ;;
   slow) extra=(--set algo.learning_rate=0.0001 --set algo.target_update_interval=4096) ;;
   gamma) extra=(--set algo.gamma=0.95) ;;
-  *) echo "unknown variant $VARIANT (cql, slow or gamma)" >&2; exit 2 ;;
+  boltzmann) extra=(--set algo.gamma=0.95 --set algo.exploration_temperature=1.0) ;;
+  *) echo "unknown variant $VARIANT (cql, slow, gamma or boltzmann)" >&2; exit 2 ;;
 esac
 bash "$(dirname "$0")/train.sh" $TASK $SEED $HOURS --set env.push_frame=surface --set algo.qmap_skip=true \
   --set run.eval_every_episodes=200 "${extra[@]}" --out runs/sgpd-stable-$VARIANT "$@"

@@ -9,6 +9,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from relmogen.agents.dqn import QMapReplayBuffer, QMapReplaySamples, RelmogenDQN, allowed_actions
 from relmogen.agents.qmap_network import NUM_MAPS
 from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.envs.subgoal_controls import YAW_BINS
 
 SIZE = 64
 Q = SIZE // 4
@@ -113,3 +114,13 @@ def add_step(buffer: QMapReplayBuffer, row_id: int, reward: float = 0.0, done=Fa
 def add_rows(buffer: QMapReplayBuffer, actions, demonstrations: bool) -> None:
     for action in actions:
         add_step(buffer, action, demo=demonstrations)
+
+
+def assert_base_actions_free(actions: np.ndarray, masks: np.ndarray) -> int:
+    """Every base action lies on an allowed base cell and every arm action on an allowed arm
+    cell of its row's (2, Q, Q) masks; returns the number of base actions."""
+    base = actions < YAW_BINS * Q * Q
+    part = (~base).astype(int)
+    cells = np.where(base, actions, actions - YAW_BINS * Q * Q) % (Q * Q)
+    assert masks.reshape(len(actions), 2, -1)[np.arange(len(actions)), part, cells].all()
+    return int(base.sum())

@@ -8,7 +8,8 @@ The add-ons have their own files: ``test_dqn_conservative.py``, ``test_dqn_demon
 import numpy as np
 import pytest
 import torch as th
-from dqn_helpers import Q, SIZE, SMALL_NET, few_free_cells, make_env, random_batch, transposed_observation_space
+from dqn_helpers import (Q, SIZE, SMALL_NET, assert_base_actions_free, few_free_cells, make_env, random_batch,
+                         transposed_observation_space)
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -149,16 +150,6 @@ def test_an_update_reports_the_q_of_the_taken_actions_and_of_their_targets():
 
 
 # ------------------------------------------------------------- (c) masked exploration
-def assert_base_actions_free(actions: np.ndarray, masks: np.ndarray) -> int:
-    """Every base action lies on an allowed base cell and every arm action on an allowed arm
-    cell of its row's (2, Q, Q) masks; returns the number of base actions."""
-    base = actions < YAW_BINS * Q * Q
-    part = (~base).astype(int)
-    cells = np.where(base, actions, actions - YAW_BINS * Q * Q) % (Q * Q)
-    assert masks.reshape(len(actions), 2, -1)[np.arange(len(actions)), part, cells].all()
-    return int(base.sum())
-
-
 def test_random_exploration_never_picks_an_occupied_cell(model):
     n = 500
     obs = {key: value.numpy() for key, value in random_batch(model.observation_space, n).items()}

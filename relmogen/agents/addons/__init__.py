@@ -10,6 +10,7 @@ which results folder measured it.
 | ``kept_demonstrations``  | ``algo.demo_keep``              | a replay mixin                            |
 | ``n_step``               | ``algo.n_step_returns``         | a replay mixin                            |
 | ``oracle_labels``        | ``algo.oracle_labels``          | ``OracleLabeller``, called by the learner |
+| ``boltzmann_exploration``| ``algo.exploration_temperature``| how ``RelmogenDQN.predict`` explores      |
 | ``skip_no_ops``          | ``relmogen eval --skip-no-ops`` | at test time only (SGP-R too)             |
 | ``critic_select``        | ``relmogen eval --critic-select``| at test time only, SGP-R / SAC / OAC     |
 
