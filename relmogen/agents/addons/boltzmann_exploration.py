@@ -10,8 +10,9 @@ the actions the network rates highly: a cell whose Q rose after a press is tried
 overestimated cell is tried and corrected. While the map is flat it is as uniform as before.
 Only the task reward is used; the random steps before ``learning_starts`` stay uniform.
 
-Measured in ``results/sgpd-explore`` (eighth session): ButtonDoorNav seed 0 against the same
-run with uniform exploration.
+Measured in ``results/sgpd-explore`` (eighth session), ButtonDoorNav seed 0 with T = 1 against
+the same run with uniform exploration: presses 25 against 14 over the first 800 episodes, 61
+against 53 by episode 2,000; greedy SR 0.0 in both.
 """
 
 from __future__ import annotations
