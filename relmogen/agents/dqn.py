@@ -30,8 +30,9 @@ the next state's masks and the masks its action was chosen under; SB3's
 Optional research add-ons, all ours and off by default, live in ``relmogen/agents/addons/``
 (each module's docstring says what it adds, where it comes from and what measured it):
 ``conservative_weight`` (CQL), ``demo_margin_weight`` (DQfD's margin), ``keep_demonstrations``
-(the replay's ``algo.demo_keep``), ``n_step_returns`` and ``oracle_labels`` (DAgger-style
-labels); ``env_policy(skip_no_ops=True)`` is a test-time rule. ``QMapReplayBuffer`` is
+(the replay's ``algo.demo_keep``), ``n_step_returns``, ``oracle_labels`` (DAgger-style
+labels), ``exploration_temperature`` (Boltzmann exploration) and ``priority_alpha`` (prioritized
+replay); ``env_policy(skip_no_ops=True)`` is a test-time rule. ``QMapReplayBuffer`` is
 ``CellMaskReplayBuffer`` with the add-ons' replay mixins, and ``RelmogenDQN`` adds their loss
 terms to the Huber loss; with every add-on off it is the plain masked Double DQN.
 """
@@ -58,6 +59,8 @@ from relmogen.agents.addons.demonstration_margin import ExpertLabels, demonstrat
 from relmogen.agents.addons.kept_demonstrations import DemonstrationRows
 from relmogen.agents.addons.n_step import NStepReturns, use_n_step_returns
 from relmogen.agents.addons.oracle_labels import OracleLabeller
+from relmogen.agents.addons.prioritized_replay import (PrioritizedRows, annealed_beta, use_prioritized_replay,
+                                                       weighted_td_loss)
 from relmogen.agents.addons.skip_no_ops import NoOpMemory
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.agents.replay import CompactDictReplayBuffer, with_full_capacity
@@ -227,6 +230,7 @@ class QMapReplaySamples(NamedTuple):
     next_masks: th.Tensor | None = None
     masks: th.Tensor | None = None
     labels: th.Tensor | None = None  # (B,) long: the expert's action for the margin term, -1 for none
+    weights: th.Tensor | None = None  # (B, 1) importance weights of prioritized replay
 
 
 def masks_before(next_masks: np.ndarray, dones: np.ndarray, pos: int, full: bool) -> np.ndarray:
@@ -306,11 +310,12 @@ class CellMaskReplayBuffer(CompactDictReplayBuffer):
         return self._normalize_reward(self.rewards[batch_inds, envs], env).astype(np.float32), None, batch_inds
 
 
-class QMapReplayBuffer(DemonstrationRows, ExpertLabels, NStepReturns, CellMaskReplayBuffer):
+class QMapReplayBuffer(DemonstrationRows, PrioritizedRows, ExpertLabels, NStepReturns, CellMaskReplayBuffer):
     """relmogen-d's replay: ``CellMaskReplayBuffer`` with the add-ons' rows and columns. ``demo`` marks
-    demonstration rows (kept with ``keep_demonstrations``), ``labels`` holds each row's expert
-    action for the margin term, and with ``n_step_returns`` > 1 samples carry n-step rewards and
-    their ``discounts`` (``RelmogenDQN`` sets it and ``gamma`` before sampling)."""
+    demonstration rows (kept with ``keep_demonstrations``), ``priorities`` drive prioritized
+    sampling when ``priority_alpha`` > 0, ``labels`` holds each row's expert action for the margin
+    term, and with ``n_step_returns`` > 1 samples carry n-step rewards and their ``discounts``
+    (``RelmogenDQN`` sets these and ``gamma`` before sampling)."""
 
 
 
@@ -318,7 +323,8 @@ class QMapReplayBuffer(DemonstrationRows, ExpertLabels, NStepReturns, CellMaskRe
 class RelmogenDQN(DQN):
     """SB3 DQN + Double DQN targets + mask-aware exploration and greedy choice (module doc); the
     add-ons' arguments (``conservative_weight``, ``demo_margin_weight``, ``n_step_returns``,
-    ``oracle_labels``, ``exploration_temperature``) are described in ``relmogen/agents/addons``."""
+    ``oracle_labels``, ``exploration_temperature``, ``priority_alpha``, ``priority_beta``) are described
+    in ``relmogen/agents/addons``."""
 
     def __init__(self, policy=QMapDQNPolicy, env=None, *, subgoal_parts: tuple[str, ...] = ALL_PARTS,
                  mask_arm: bool = True,
@@ -328,6 +334,7 @@ class RelmogenDQN(DQN):
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
                  conservative_weight: float = 0.0, demo_margin_weight: float = 0.0, n_step_returns: int = 1,
                  oracle_labels: bool = False, exploration_temperature: float = 0.0,
+                 priority_alpha: float = 0.0, priority_beta: float = 0.4,
                  replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
         self.mask_arm = bool(mask_arm)
@@ -337,6 +344,7 @@ class RelmogenDQN(DQN):
         self.n_step_returns = int(n_step_returns)  # not SB3's ``n_steps``: that one wants SB3's own buffer
         self.oracle_labels = bool(oracle_labels)
         self.exploration_temperature = float(exploration_temperature)
+        self.priority_alpha, self.priority_beta = float(priority_alpha), float(priority_beta)
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -449,6 +457,8 @@ class RelmogenDQN(DQN):
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
         use_n_step_returns(self.replay_buffer, self.n_step_returns, self.gamma)
+        use_prioritized_replay(self.replay_buffer, self.priority_alpha,
+                               annealed_beta(self.priority_beta, self.num_timesteps, self.exploration_steps))
         steps = [self._gradient_step(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env))
                  for _ in range(gradient_steps)]
         self._n_updates += gradient_steps
@@ -465,7 +475,8 @@ class RelmogenDQN(DQN):
         targets = self.double_dqn_targets(data)
         q_values = self.q_net(data.observations)
         current = q_values.gather(1, data.actions.long())
-        td_loss = F.smooth_l1_loss(current, targets)
+        errors = F.smooth_l1_loss(current, targets, reduction="none")
+        td_loss = weighted_td_loss(errors, getattr(data, "weights", None))
         loss_terms = self.active_loss_terms()
         terms = {term.name: term.value(q_values, current, data, self.allowed) for term in loss_terms}
         loss = td_loss
@@ -475,5 +486,7 @@ class RelmogenDQN(DQN):
         loss.backward()
         th.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
         self.policy.optimizer.step()
+        if getattr(data, "weights", None) is not None:
+            self.replay_buffer.update_priorities((targets - current).detach().cpu().numpy())
         return {"loss": td_loss.item(), "q_taken": current.mean().item(), "target": targets.mean().item(),
                 **{name: value.item() for name, value in terms.items()}}

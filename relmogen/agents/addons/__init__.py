@@ -11,6 +11,7 @@ which results folder measured it.
 | ``n_step``               | ``algo.n_step_returns``         | a replay mixin                            |
 | ``oracle_labels``        | ``algo.oracle_labels``          | ``OracleLabeller``, called by the learner |
 | ``boltzmann_exploration``| ``algo.exploration_temperature``| how ``RelmogenDQN.predict`` explores      |
+| ``prioritized_replay``   | ``algo.priority_alpha``, ``_beta``| a replay mixin and the loss's weights   |
 | ``skip_no_ops``          | ``relmogen eval --skip-no-ops`` | at test time only (SGP-R too)             |
 | ``critic_select``        | ``relmogen eval --critic-select``| at test time only, SGP-R / SAC / OAC     |
 
