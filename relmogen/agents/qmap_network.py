@@ -25,6 +25,15 @@ whatever C is, so ``rgb`` (C = 3) AND ``local_map`` (C = 1 or 2) arrive as (C, H
 training. The layout is read from the observation space (channel axis = the smallest one,
 SB3's own rule), so the network follows whatever space it was built with.
 
+With ``unet`` (ours, off by default; not with ``skip``) the head is a U-Net decoder: each
+upsampling stage (a 4x4 transposed convolution with stride 2) is concatenated with both
+branches' features at its resolution and fused by a 1x1 convolution, down to Q x Q, then a 1x1
+convolution gives the maps. With ``skip`` a cell sees the bottleneck (4 x 4 at 64 px, 16 px a
+cell) and one conv layer over its own 3 x 3 pixels; in ArrangeKitchenMM such a network's greedy
+push was the same cell and bin in all of 16 oracle states (results/sgpd-explore, tenth
+session): values of places, not of what is there. The U-Net gives each cell features at every
+scale between.
+
 With ``bf16`` (ours, off by default) every layer but the last runs under bfloat16 autocast;
 the last layer and the Q values stay float32, so actions whose values differ by less than
 bfloat16's step (about 0.03 at Q = 5) are still told apart. Weights, gradients and the
@@ -92,6 +101,26 @@ def skip_head(in_channels: int, skip_channels: int, hidden: int, out_channels: i
     })
 
 
+def unet_head(bottleneck_channels: int, skip_channels: list[int], hidden: int, out_channels: int) -> nn.ModuleDict:
+    """One stage per entry of ``skip_channels`` (coarse to fine): upsample x2, concatenate those
+    skip features, fuse by a 1x1 conv; then a 1x1 conv to the maps."""
+    up, fuse, in_channels = nn.ModuleList(), nn.ModuleList(), bottleneck_channels
+    for channels in skip_channels:
+        up.append(nn.Sequential(nn.ConvTranspose2d(in_channels, hidden, 4, stride=2, padding=1), nn.ReLU()))
+        fuse.append(nn.Sequential(nn.Conv2d(hidden + channels, hidden, 1), nn.ReLU()))
+        in_channels = hidden
+    return nn.ModuleDict({"up": up, "fuse": fuse, "out": nn.Conv2d(hidden, out_channels, 1)})
+
+
+def branch_features(branch: nn.Sequential, x: th.Tensor) -> list[th.Tensor]:
+    """Outputs of each stride-2 conv (after its ReLU), finest first."""
+    features = []
+    for conv, relu in zip(branch[::2], branch[1::2]):
+        x = relu(conv(x))
+        features.append(x)
+    return features
+
+
 def downsampling_convs(image_size: int, q: int) -> int:
     """How many of the 4 stride-2 convs bring the image to Q x Q (2 for the paper's Q = S/4)."""
     ratio = image_size // q
@@ -104,9 +133,12 @@ class QMapNetwork(nn.Module):
     """Observation dict -> Q values over all SGP-D actions, (B, (L + K) * Q * Q)."""
 
     def __init__(self, observation_space: spaces.Dict, widths: tuple[int, ...] = (32, 64, 64, 128),
-                 head_width: int = 128, skip: bool = False, q: int | None = None, bf16: bool = False):
+                 head_width: int = 128, skip: bool = False, q: int | None = None, bf16: bool = False,
+                 unet: bool = False):
         super().__init__()
         self.bf16 = bool(bf16)
+        if skip and unet:
+            raise ValueError("choose one Q-map head: skip or unet")
         if len(widths) != 4:
             raise ValueError(f"QMapNetwork needs 4 conv widths (S -> S/16), got {widths}")
         rgb_space, map_space = observation_space["rgb"], observation_space["local_map"]
@@ -121,9 +153,12 @@ class QMapNetwork(nn.Module):
         map_channels = map_space.shape[0] if self.map_channels_first else map_space.shape[-1]
         self.image_branch = conv_branch(4, widths)
         self.map_branch = conv_branch(map_channels, widths)
-        self.skip = bool(skip)
+        self.skip, self.unet = bool(skip), bool(unet)
         stages = len(widths) - convs_to_q
-        if self.skip:
+        if self.unet:  # skips at S/8 ... Q, coarse to fine
+            self.unet_skips = list(range(len(widths) - 2, convs_to_q - 2, -1))
+            self.head = unet_head(2 * widths[-1], [2 * widths[i] for i in self.unet_skips], head_width, NUM_MAPS)
+        elif self.skip:
             self.head = skip_head(2 * widths[-1], 2 * widths[convs_to_q - 1], head_width, NUM_MAPS, stages)
         else:
             self.head = deconv_head(2 * widths[-1], head_width, NUM_MAPS, stages)
@@ -150,6 +185,8 @@ class QMapNetwork(nn.Module):
 
     @property
     def last_layer(self) -> nn.Module:
+        if self.unet:
+            return self.head["out"]
         return self.head["out"][-1] if self.skip else self.head[-1]
 
     def reduced_precision(self, device: th.device):
@@ -160,12 +197,22 @@ class QMapNetwork(nn.Module):
 
     def last_layer_input(self, obs: dict[str, th.Tensor]) -> th.Tensor:
         image, local_map = self.image_tensor(obs), self.map_tensor(obs)
+        if self.unet:
+            return self.unet_features(image, local_map)
         if not self.skip:
             return self.head[:-1](th.cat([self.image_branch(image), self.map_branch(local_map)], dim=1))
         depth = self.skip_depth
         image_q, map_q = self.image_branch[:depth](image), self.map_branch[:depth](local_map)
         bottleneck = th.cat([self.image_branch[depth:](image_q), self.map_branch[depth:](map_q)], dim=1)
         return self.head["out"][:-1](th.cat([self.head["up"](bottleneck), image_q, map_q], dim=1))
+
+    def unet_features(self, image: th.Tensor, local_map: th.Tensor) -> th.Tensor:
+        scales = [th.cat(pair, dim=1) for pair in zip(branch_features(self.image_branch, image),
+                                                       branch_features(self.map_branch, local_map))]
+        x = scales[-1]
+        for up, fuse, index in zip(self.head["up"], self.head["fuse"], self.unet_skips):
+            x = fuse(th.cat([up(x), scales[index]], dim=1))
+        return x
 
     def forward(self, obs: dict[str, th.Tensor]) -> th.Tensor:
         maps = self.q_maps(obs)

@@ -27,7 +27,10 @@
     (Q, Q) bool array of base cells where the robot's footprint is free on the map;
     ``info["arm_mask"]`` a (Q, Q) bool array of arm cells whose pixel has depth and sees a point
     within the robot's ``arm_reach`` of its first arm joint (beyond it no plan is ever found),
-    and with ``push_frame="surface"`` a steep surface.
+    and with ``push_frame="surface"`` a steep surface. With ``reach_mask="measured"`` (ours) the
+    point must lie in the robot's measured reachability map instead (``robots/reachability.py``:
+    the sphere also allows points with no IK solution, about one arm cell in five in
+    ArrangeKitchenMM start states).
 
 Rewards are the sum of the low-level (0.1 s) rewards accrued while the subgoal executed.
 When no plan is found the step is a no-op: nothing moves, the reward is 0, and it counts.
@@ -56,6 +59,7 @@ from relmogen.envs.controls import Control, StepOutcome, validate_action
 from relmogen.motion_generation.base_planner import FootprintChecker, wrap_angle
 from relmogen.motion_generation.arm import ArmConfig
 from relmogen.motion_generation.generator import MotionGenerator, MotionGeneratorConfig, SubgoalResult
+from relmogen.robots.reachability import load_reachability
 
 if TYPE_CHECKING:
     from relmogen.envs.relmogen_env import RelmogenEnv
@@ -67,6 +71,7 @@ PUSH_BINS = 12  # K
 Q_DOWNSAMPLE = 4  # the paper's image pixels per Q-map cell (128 px -> 32 x 32); ``qmap_size`` overrides
 LOCAL_MAP_M = 5.0  # side of the base Q map's local map, centred on the robot
 PUSH_FRAMES = ("base", "surface")
+REACH_MASKS = ("sphere", "measured")
 STEEP_NORMAL = np.cos(np.deg2rad(45.0))  # least horizontal part of a unit normal a push can go into
 
 
@@ -252,9 +257,12 @@ class SubgoalDControl(SubgoalControl):
     name = "subgoal-d"
 
     def __init__(self, env: RelmogenEnv, push_length: float = PUSH_MAX, push_frame: str = "base",
-                 qmap_size: int | None = None, **options: Any):
+                 qmap_size: int | None = None, reach_mask: str = "sphere", **options: Any):
         if push_frame not in PUSH_FRAMES:
             raise ValueError(f"unknown push_frame {push_frame!r}; valid: {', '.join(PUSH_FRAMES)}")
+        if reach_mask not in REACH_MASKS:
+            raise ValueError(f"unknown reach_mask {reach_mask!r}; valid: {', '.join(REACH_MASKS)}")
+        self._reachability = load_reachability(env.robot.spec) if reach_mask == "measured" else None
         super().__init__(env, **options)
         size = env.camera.intrinsics.width
         self.map_pixels, self.q = size, qmap_size_for(size, qmap_size)
@@ -372,7 +380,10 @@ class SubgoalDControl(SubgoalControl):
         env, frame = self.env, self.env.last_frame
         rows, cols = self.cell_pixel(*np.meshgrid(np.arange(self.q), np.arange(self.q), indexing="ij"))
         points, has_depth = env.camera.pixels_to_world(frame, cols, rows)
-        reachable = has_depth & within_arm_reach(env, points)
+        if self._reachability is None:
+            reachable = has_depth & within_arm_reach(env, points)
+        else:
+            reachable = has_depth & self._reachability.contains_world(points, env.robot.base_pose())
         if self.push_frame == "base":
             return reachable
         normals = env.camera.surface_normals(frame, cols, rows)

@@ -34,6 +34,9 @@ class EnvConfig(_Strict):
     arm_collision_train: bool = False
     episode_steps: int | None = Field(None, ge=1)  # None: the paper's (25 subgoals / 750 joint steps)
     push_frame: Literal["base", "surface"] = "base"  # relmogen-d's push bins (subgoal_controls.py; ours: surface)
+    # relmogen-d's arm-cell reach mask: "sphere" (spec.arm_reach around the first arm joint) or
+    # "measured" (ours: the robot's reachability map, relmogen/robots/reachability.py)
+    reach_mask: Literal["sphere", "measured"] = "sphere"
     # relmogen-d's Q-map side; None: image_size / 4 (the paper's 32 at 128 px). 2, 4 or 8 times it = image_size
     qmap_size: int | None = Field(None, ge=1)
     # a base subgoal whose goal pose is in collision: "strict" is a no-op (the paper's),
@@ -127,6 +130,7 @@ class AlgoConfig(_Strict):
     qmap_widths: list[int] | None = None
     qmap_head_width: int | None = None
     qmap_skip: bool | None = None  # S/4 branch features into the Q-map head (U-Net style; ours, default off)
+    qmap_unet: bool | None = None  # a U-Net Q-map head: branch features at every scale (ours, default off; not with qmap_skip)
     qmap_bf16: bool | None = None  # the Q-map network under bfloat16 autocast but its last layer (ours, default off)
     demo_episodes: int = Field(0, ge=0)  # task-oracle episodes put in the replay before learning (ours; 0 = off)
     demo_keep: bool = False  # relmogen-d: the replay never overwrites the demonstrations (ours)
@@ -154,6 +158,12 @@ class AlgoConfig(_Strict):
     hrl4in_high_buffer_size: int = Field(10_000, ge=1)  # high-level transitions (one per subgoal)
     hrl4in_high_batch_size: int | None = Field(None, ge=1)  # None: batch_size
     hrl4in_high_learning_starts: int = Field(50, ge=0)  # high-level transitions of random subgoals first
+
+    @model_validator(mode="after")
+    def _one_qmap_head(self) -> AlgoConfig:
+        if self.qmap_skip and self.qmap_unet:
+            raise ValueError("algo.qmap_skip and algo.qmap_unet are two Q-map heads: choose one")
+        return self
 
 
 class RunSettings(_Strict):

@@ -95,7 +95,8 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
     if config.control == "subgoal-r" and config.env.subgoal_feedback:
         kwargs["subgoal_feedback"] = True
     if config.control == "subgoal-d":
-        kwargs.update(push_frame=config.env.push_frame, qmap_size=config.env.qmap_size)
+        kwargs.update(push_frame=config.env.push_frame, qmap_size=config.env.qmap_size,
+                      reach_mask=config.env.reach_mask)
     return kwargs
 
 
@@ -182,7 +183,8 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
     params = config.algo_params
     policy_kwargs = {key: value for key, value in
                      (("widths", params.qmap_widths), ("head_width", params.qmap_head_width),
-                      ("skip", params.qmap_skip), ("bf16", params.qmap_bf16)) if value is not None}
+                      ("skip", params.qmap_skip), ("bf16", params.qmap_bf16), ("unet", params.qmap_unet))
+                     if value is not None}
     optional = {key: getattr(params, key) for key in
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
                  "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels",

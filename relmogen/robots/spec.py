@@ -1,6 +1,8 @@
 """Embodiment specs: everything robot-specific, loaded from ``assets/<name>/spec.yaml``.
 
-Adding a robot means adding a folder with a URDF and a ``spec.yaml``; no Python changes.
+Adding a robot means adding a folder with a URDF and a ``spec.yaml``; no Python changes. Its
+measured arm reachability map (``reachability.npz``, for ``env.reach_mask=measured``) is written
+there by ``python -m relmogen.robots.reachability <name>``.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@
 # instead of 0.99: a 20-subgoal horizon for 25-subgoal episodes); boltzmann is gamma with exploratory
 # actions drawn from softmax(Q / 1) instead of uniformly (algo.exploration_temperature=1, eighth
 # session); prioritized is boltzmann with proportional prioritized replay (algo.priority_alpha=0.6,
-# beta 0.4 -> 1 over the exploration steps; ninth session).  VARIANT TASK SEED CPU_HOURS
+# beta 0.4 -> 1 over the exploration steps; ninth session); unet is boltzmann with the U-Net Q-map
+# head instead of the skip head (algo.qmap_unet, tenth session).  VARIANT TASK SEED CPU_HOURS
 set -euo pipefail
 VARIANT=$1; TASK=$2; SEED=$3; HOURS=$4; shift 4
 case $VARIANT in
@@ -16,7 +17,9 @@ case $VARIANT in
   boltzmann) extra=(--set algo.gamma=0.95 --set algo.exploration_temperature=1.0) ;;
   prioritized) extra=(--set algo.gamma=0.95 --set algo.exploration_temperature=1.0 --set algo.priority_alpha=0.6
                       --set algo.priority_beta=0.4) ;;
-  *) echo "unknown variant $VARIANT (cql, slow, gamma, boltzmann or prioritized)" >&2; exit 2 ;;
+  unet) extra=(--set algo.gamma=0.95 --set algo.exploration_temperature=1.0 --set algo.qmap_skip=false
+               --set algo.qmap_unet=true) ;;
+  *) echo "unknown variant $VARIANT (cql, slow, gamma, boltzmann, prioritized or unet)" >&2; exit 2 ;;
 esac
 bash "$(dirname "$0")/train.sh" $TASK $SEED $HOURS --set env.push_frame=surface --set algo.qmap_skip=true \
   --set run.eval_every_episodes=200 "${extra[@]}" --out runs/sgpd-stable-$VARIANT "$@"

@@ -37,11 +37,14 @@ def test_decode_encode_round_trip(model):
         assert control.encode(*control.decode(int(index))) == index
 
 
-@pytest.mark.parametrize("skip", [False, True])
-def test_flat_q_values_follow_the_env_index_order(model, skip):
+HEADS = {"deconv": {}, "skip": {"skip": True}, "unet": {"unet": True}}
+
+
+@pytest.mark.parametrize("head", HEADS)
+def test_flat_q_values_follow_the_env_index_order(model, head):
     control = model.env.unwrapped.envs[0].unwrapped.control
-    net = QMapNetwork(model.observation_space, **SMALL_NET, skip=skip)
-    last_layer = net.head[-1] if not skip else net.head["out"][-1]
+    net = QMapNetwork(model.observation_space, **SMALL_NET, **HEADS[head])
+    last_layer = net.last_layer
     captured = {}
     handle = last_layer.register_forward_hook(lambda module, inputs, output: captured.update(maps=output))
     obs = random_batch(model.observation_space, 3)
@@ -56,7 +59,7 @@ def test_flat_q_values_follow_the_env_index_order(model, skip):
         assert th.equal(q_values[:, index], maps[:, channel, i, j])
 
 
-@pytest.mark.parametrize("setting", ["skip", "bf16"])
+@pytest.mark.parametrize("setting", ["skip", "bf16", "unet"])
 def test_network_settings_survive_save_and_load(tmp_path, setting):
     dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, learning_starts=0,
                       policy_kwargs=dict(SMALL_NET, **{setting: True}), seed=0)
@@ -83,10 +86,11 @@ def test_channels_last_and_channels_first_observations_agree():
         assert th.allclose(net_first(obs), net_last(obs_last))
 
 
-@pytest.mark.parametrize("skip", [False, True])
-def test_bfloat16_body_gives_float32_q_values_close_to_the_float32_network(skip):
+@pytest.mark.parametrize("head", HEADS)
+def test_bfloat16_body_gives_float32_q_values_close_to_the_float32_network(head):
     space = transposed_observation_space(SIZE)
-    exact, reduced = QMapNetwork(space, **SMALL_NET, skip=skip), QMapNetwork(space, **SMALL_NET, skip=skip, bf16=True)
+    exact = QMapNetwork(space, **SMALL_NET, **HEADS[head])
+    reduced = QMapNetwork(space, **SMALL_NET, **HEADS[head], bf16=True)
     reduced.load_state_dict(exact.state_dict())
     obs = random_batch(space, 4)
     q_reduced = reduced(obs)
@@ -284,15 +288,15 @@ def test_learns_on_pointnav_and_round_trips_with_its_replay_buffer(tmp_path):
 
 
 # ------------------------------------------------- (f) Q maps finer than the input's quarter
-@pytest.mark.parametrize("skip", [False, True])
-def test_32_by_32_q_maps_from_64_px_follow_the_env_index_order(skip):
+@pytest.mark.parametrize("head", HEADS)
+def test_32_by_32_q_maps_from_64_px_follow_the_env_index_order(head):
     """The paper's 32 x 32 maps (24,576 actions) from 64 px inputs: one more upsampling stage,
     and the flat Q values still in the environment's index order."""
     env = make_env(qmap_size=32)
     space, control = env.observation_space, env.unwrapped.control
-    net = QMapNetwork(space, **SMALL_NET, skip=skip, q=32)
+    net = QMapNetwork(space, **SMALL_NET, **HEADS[head], q=32)
     assert net.n_actions == control.action_space.n == NUM_MAPS * 32 * 32
-    last_layer = net.head[-1] if not skip else net.head["out"][-1]
+    last_layer = net.last_layer
     captured = {}
     handle = last_layer.register_forward_hook(lambda module, inputs, output: captured.update(maps=output))
     with th.no_grad():
@@ -304,6 +308,19 @@ def test_32_by_32_q_maps_from_64_px_follow_the_env_index_order(skip):
         channel = bin_ if part == "base" else YAW_BINS + bin_
         assert th.equal(q_values[:, index], captured["maps"][:, channel, i, j])
     env.close()
+
+
+@pytest.mark.parametrize("q", [16, 32])
+def test_unet_head_fuses_both_branches_at_every_scale_down_to_q(q):
+    """At 64 px: 16 x 16 maps take the S/8 and S/4 features, 32 x 32 maps also the S/2 ones."""
+    net = QMapNetwork(transposed_observation_space(64), **SMALL_NET, unet=True, q=q)
+    widths = SMALL_NET["widths"]
+    expected = [2, 1] if q == 16 else [2, 1, 0]
+    assert net.unet_skips == expected and len(net.head["up"]) == len(expected)
+    for fuse, index in zip(net.head["fuse"], expected):
+        assert fuse[0].in_channels == SMALL_NET["head_width"] + 2 * widths[index]
+    with pytest.raises(ValueError, match="choose one Q-map head"):
+        QMapNetwork(transposed_observation_space(64), **SMALL_NET, unet=True, skip=True, q=q)
 
 
 def test_q_map_sides_the_network_cannot_reach_are_refused():

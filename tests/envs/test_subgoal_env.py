@@ -355,6 +355,22 @@ def test_surface_frame_pushes_go_into_steep_surfaces_and_never_the_floor():
     env.close()
 
 
+def test_measured_reach_mask_drops_far_cells_of_the_sphere_mask():
+    masks = {}
+    for reach_mask in ("sphere", "measured"):
+        env = RelmogenEnv(task="ArrangeKitchenMM", control="subgoal-d", image_size=64, push_frame="surface",
+                          qmap_size=32, reach_mask=reach_mask)
+        masks[reach_mask] = env.reset(seed=0)[1]["arm_mask"]
+        env.close()
+    sphere, measured = masks["sphere"], masks["measured"]
+    assert measured.sum() > 100 and not (measured & ~sphere).any() and (sphere & ~measured).any()
+
+
+def test_unknown_reach_mask_is_refused():
+    with pytest.raises(ValueError, match="unknown reach_mask 'cube'"):
+        RelmogenEnv(task="PointNav", control="subgoal-d", image_size=64, reach_mask="cube")
+
+
 def test_unknown_push_frame_is_refused():
     with pytest.raises(ValueError, match="unknown push_frame 'tool'"):
         RelmogenEnv(task="PointNav", control="subgoal-d", image_size=64, push_frame="tool")

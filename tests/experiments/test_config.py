@@ -33,6 +33,8 @@ def test_every_value_can_be_overridden():
     (dict(overrides=["algo.not_a_key=1"]), "not_a_key"),
     (dict(overrides=["nonsense"]), "section.key=value"),
     (dict(algo="relmogen-r", overrides=["env.arm_rrt=[0,4]"]), "arm_rrt"),
+    (dict(algo="relmogen-d", overrides=["algo.qmap_skip=true", "algo.qmap_unet=true"]), "choose one"),
+    (dict(algo="relmogen-d", overrides=["env.reach_mask=cube"]), "reach_mask"),
 ])
 def test_bad_configuration_is_refused_with_a_reason(kwargs, message):
     args = dict(task="PointNav", algo="sac") | kwargs
