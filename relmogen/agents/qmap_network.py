@@ -32,7 +32,9 @@ convolution gives the maps. With ``skip`` a cell sees the bottleneck (4 x 4 at 6
 cell) and one conv layer over its own 3 x 3 pixels; in ArrangeKitchenMM such a network's greedy
 push was the same cell and bin in all of 16 oracle states (results/sgpd-explore, tenth
 session): values of places, not of what is there. The U-Net gives each cell features at every
-scale between.
+scale between, for the same update cost (0.81 against 0.79 CPU s). Measured on one seed: its
+training episodes closed more items early (0.52-0.65 against 0.28-0.37 per episode in
+episodes 101-300), but at episode 520 its greedy push too was one cell and bin in all 16 states.
 
 With ``bf16`` (ours, off by default) every layer but the last runs under bfloat16 autocast;
 the last layer and the Q values stay float32, so actions whose values differ by less than

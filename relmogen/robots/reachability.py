@@ -1,8 +1,8 @@
 """Measured arm reachability: which points around the base the gripper can reach.
 
 A robot's ``spec.arm_reach`` is a sphere around the first arm joint: no plan is ever found
-beyond it, but many points inside it have no IK solution either (with Fetch, about one in five
-of the arm cells SGP-D allowed in ArrangeKitchenMM start states, all 1.0-1.4 m from the base).
+beyond it, but some points inside it have no IK solution either (with Fetch, 15% of the arm
+cells SGP-D allowed in ArrangeKitchenMM, most of them 1.0-1.4 m from the base).
 The reachability map is a voxel grid in the base frame (x forward, y left, z up from the floor)
 of the points within the IK tolerance of a gripper position some configuration of the planning
 joints (torso and arm, within their limits) reaches: forward kinematics of random
