@@ -83,7 +83,7 @@ def load_reachability(spec: EmbodimentSpec) -> ReachabilityMap:
     return ReachabilityMap.load(path)
 
 
-def gripper_positions(spec: EmbodimentSpec, samples: int, seed: int, batch: int = 10_000) -> np.ndarray:
+def gripper_positions(spec: EmbodimentSpec, samples: int, seed: int) -> np.ndarray:
     """Gripper positions (base frame) of ``samples`` uniform random torso + arm configurations."""
     from relmogen.motion_generation.ik import ArmIK  # the motion stack imports robots, not the reverse
     from relmogen.robots.robot import Robot
@@ -93,10 +93,7 @@ def gripper_positions(spec: EmbodimentSpec, samples: int, seed: int, batch: int 
     try:
         robot = Robot(world.client, spec)
         ik, rng = ArmIK(world.client, robot), np.random.default_rng(seed)
-        positions = np.empty((samples, 3))
-        for start in range(0, samples, batch):
-            for n in range(start, min(start + batch, samples)):
-                positions[n] = ik.end_effector_at(ik.random_config(rng))
+        positions = np.array([ik.end_effector_at(ik.random_config(rng)) for _ in range(samples)])
         return world_to_base(positions, robot.base_pose())
     finally:
         world.close()

@@ -48,16 +48,26 @@ def cap_row(state, cap: np.ndarray) -> dict:
     return row
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def checkpoint_arguments(description: str, states: int) -> argparse.Namespace:
+    """RUN [--checkpoint] [--states] [--seed] [--out]: the arguments of the oracle-state diagnostics."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("run", type=Path)
     parser.add_argument("--checkpoint", default="latest")
-    parser.add_argument("--states", type=int, default=8)
+    parser.add_argument("--states", type=int, default=states)
     parser.add_argument("--seed", type=int, default=100_000)
     parser.add_argument("--out", type=Path)
-    args = parser.parse_args()
+    return parser.parse_args()
+
+
+def model_and_training_env(args: argparse.Namespace):
+    """The checkpoint's model and an environment as in training (arm collision checking off)."""
     model, config, _ = load_policy(args.run, checkpoint=args.checkpoint)
-    env = RelmogenEnv(**env_kwargs(config, arm_collision=False))
+    return model, RelmogenEnv(**env_kwargs(config, arm_collision=False))
+
+
+def main() -> None:
+    args = checkpoint_arguments(__doc__.splitlines()[0], states=8)
+    model, env = model_and_training_env(args)
     rows, used = [], set()
     try:
         for episode, step, obs, _ in oracle_arm_pushes(env, 10 * args.states, args.seed):

@@ -12,16 +12,12 @@ action is picked by small differences: the action gap. Ends with a summary JSON 
 
 from __future__ import annotations
 
-import argparse
 import json
-from pathlib import Path
 
 import numpy as np
+from cap_values import checkpoint_arguments, model_and_training_env  # beside this script
 
-from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.experiments.evaluate import load_policy
 from relmogen.experiments.oracle import oracle_arm_pushes
-from relmogen.experiments.train import env_kwargs
 from relmogen.visualisation.qmap import q_map_state
 
 
@@ -47,15 +43,8 @@ def state_row(state, oracle_index: int) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("run", type=Path)
-    parser.add_argument("--checkpoint", default="latest")
-    parser.add_argument("--states", type=int, default=16)
-    parser.add_argument("--seed", type=int, default=100_000)
-    parser.add_argument("--out", type=Path)
-    args = parser.parse_args()
-    model, config, _ = load_policy(args.run, checkpoint=args.checkpoint)
-    env = RelmogenEnv(**env_kwargs(config, arm_collision=False))
+    args = checkpoint_arguments(__doc__.splitlines()[0], states=16)
+    model, env = model_and_training_env(args)
     rows = []
     try:
         for episode, step, obs, action in oracle_arm_pushes(env, args.states, args.seed):

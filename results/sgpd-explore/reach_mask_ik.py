@@ -26,9 +26,9 @@ from relmogen.robots.reachability import load_reachability
 CELLS_PER_STATE = 40
 
 
-def sampled_cells(env, info, rng) -> list[tuple[float, float, bool, bool]]:
+def sampled_cells(env, reach, info, rng) -> list[tuple[float, float, bool, bool]]:
     """(horizontal distance, height, in the map, IK solved) of random sphere-allowed cells."""
-    control, reach, pose = env.control, load_reachability(env.robot.spec), env.robot.base_pose()
+    control, pose = env.control, env.robot.base_pose()
     cells = np.argwhere(info["arm_mask"])
     rows = []
     for i, j in cells[rng.permutation(len(cells))[:CELLS_PER_STATE]]:
@@ -52,10 +52,11 @@ def main() -> None:
     args = parser.parse_args()
     config = resolve_config(args.task, "relmogen-d", overrides=["env.push_frame=surface"])
     env, rng, rows, start = RelmogenEnv(**env_kwargs(config, arm_collision=False)), np.random.default_rng(0), [], time.process_time()
+    reach = load_reachability(env.robot.spec)
     for episode in range(args.episodes):
         _, info = env.reset(seed=100_000 + episode)
         for _ in range(3):
-            rows += sampled_cells(env, info, rng)
+            rows += sampled_cells(env, reach, info, rng)
             _, _, _, _, info = env.step(random_base_action(env.control, info, rng))
     env.close()
     counts = Counter((in_map, solved) for _, _, in_map, solved in rows)
