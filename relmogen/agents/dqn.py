@@ -31,8 +31,8 @@ Optional research add-ons, all ours and off by default, live in ``relmogen/agent
 (each module's docstring says what it adds, where it comes from and what measured it):
 ``conservative_weight`` (CQL), ``demo_margin_weight`` (DQfD's margin), ``keep_demonstrations``
 (the replay's ``algo.demo_keep``), ``n_step_returns``, ``oracle_labels`` (DAgger-style
-labels), ``exploration_temperature`` (Boltzmann exploration) and ``priority_alpha`` (prioritized
-replay); ``env_policy(skip_no_ops=True)`` is a test-time rule. ``QMapReplayBuffer`` is
+labels), ``exploration_temperature`` (Boltzmann exploration), ``priority_alpha`` (prioritized
+replay) and ``shift_cells`` (shift augmentation of arm pushes); ``env_policy(skip_no_ops=True)`` is a test-time rule. ``QMapReplayBuffer`` is
 ``CellMaskReplayBuffer`` with the add-ons' replay mixins, and ``RelmogenDQN`` adds their loss
 terms to the Huber loss; with every add-on off it is the plain masked Double DQN.
 """
@@ -61,6 +61,7 @@ from relmogen.agents.addons.n_step import NStepReturns, use_n_step_returns
 from relmogen.agents.addons.oracle_labels import OracleLabeller
 from relmogen.agents.addons.prioritized_replay import (PrioritizedRows, annealed_beta, use_prioritized_replay,
                                                        weighted_td_loss)
+from relmogen.agents.addons.shift_augmentation import shift_arm_pushes
 from relmogen.agents.addons.skip_no_ops import NoOpMemory
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.agents.replay import CompactDictReplayBuffer, with_full_capacity
@@ -325,8 +326,8 @@ class QMapReplayBuffer(DemonstrationRows, PrioritizedRows, ExpertLabels, NStepRe
 class RelmogenDQN(DQN):
     """SB3 DQN + Double DQN targets + mask-aware exploration and greedy choice (module doc); the
     add-ons' arguments (``conservative_weight``, ``demo_margin_weight``, ``n_step_returns``,
-    ``oracle_labels``, ``exploration_temperature``, ``priority_alpha``, ``priority_beta``) are described
-    in ``relmogen/agents/addons``."""
+    ``oracle_labels``, ``exploration_temperature``, ``priority_alpha``, ``priority_beta``, ``shift_cells``)
+    are described in ``relmogen/agents/addons``."""
 
     def __init__(self, policy=QMapDQNPolicy, env=None, *, subgoal_parts: tuple[str, ...] = ALL_PARTS,
                  mask_arm: bool = True,
@@ -336,7 +337,7 @@ class RelmogenDQN(DQN):
                  exploration_final_eps: float = 0.04, exploration_steps: int | None = None,
                  conservative_weight: float = 0.0, demo_margin_weight: float = 0.0, n_step_returns: int = 1,
                  oracle_labels: bool = False, exploration_temperature: float = 0.0,
-                 priority_alpha: float = 0.0, priority_beta: float = 0.4,
+                 priority_alpha: float = 0.0, priority_beta: float = 0.4, shift_cells: int = 0,
                  replay_buffer_class=QMapReplayBuffer, **kwargs: Any):
         self.subgoal_parts = tuple(subgoal_parts)
         self.mask_arm = bool(mask_arm)
@@ -347,6 +348,7 @@ class RelmogenDQN(DQN):
         self.oracle_labels = bool(oracle_labels)
         self.exploration_temperature = float(exploration_temperature)
         self.priority_alpha, self.priority_beta = float(priority_alpha), float(priority_beta)
+        self.shift_cells = int(shift_cells)
         super().__init__(policy, env, learning_rate=learning_rate, buffer_size=buffer_size, batch_size=batch_size,
                          gamma=gamma, target_update_interval=target_update_interval, tau=tau,
                          max_grad_norm=max_grad_norm, exploration_initial_eps=exploration_initial_eps,
@@ -475,8 +477,12 @@ class RelmogenDQN(DQN):
         (``q_taken``) and of their targets (``target``), which show a diverging Q function before
         the returns do, and the value of each active loss term."""
         targets = self.double_dqn_targets(data)
-        q_values = self.q_net(data.observations)
-        current = q_values.gather(1, data.actions.long())
+        observations, actions = data.observations, data.actions
+        if self.shift_cells:
+            observations, actions = shift_arm_pushes(observations, actions, self.q, self.shift_cells,
+                                                     self.q_net.net.rgb_channels_first)
+        q_values = self.q_net(observations)
+        current = q_values.gather(1, actions.long())
         errors = F.smooth_l1_loss(current, targets, reduction="none")
         td_loss = weighted_td_loss(errors, getattr(data, "weights", None))
         loss_terms = self.active_loss_terms()

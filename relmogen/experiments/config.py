@@ -140,6 +140,7 @@ class AlgoConfig(_Strict):
     exploration_temperature: float | None = Field(None, ge=0)  # relmogen-d: explore by softmax(Q / T); 0 = uniform (ours)
     priority_alpha: float | None = Field(None, ge=0, le=1)  # relmogen-d: prioritized replay's exponent; 0 = uniform (ours)
     priority_beta: float | None = Field(None, ge=0, le=1)  # relmogen-d: its first importance exponent, to 1 over exploration_steps
+    shift_cells: int | None = Field(None, ge=0)  # relmogen-d: arm pushes' images and cells shifted up to this many cells (ours; 0 = off)
     # hrl4in only (Li et al. 2020; relmogen/agents/hrl4in.py). The generic keys above train its low
     # level; the hrl4in_high_* keys its high level.
     hrl4in_k: int = Field(30, ge=1)  # most low-level steps per subgoal (HRL4IN's time_scale)
@@ -348,13 +349,13 @@ RESUMABLE_ALGO_KEYS = frozenset({
     "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
     "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
     "exploration_steps", "conservative_weight", "demo_episodes", "demo_margin_weight", "n_step_returns",
-    "oracle_labels", "exploration_temperature", "priority_alpha", "priority_beta",
+    "oracle_labels", "exploration_temperature", "priority_alpha", "priority_beta", "shift_cells",
 })
 RESUMABLE_BUDGET_KEYS = frozenset({"episodes", "max_hours", "max_cpu_hours"})  # a longer (or shorter) run
 DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
                            "exploration_final_eps", "exploration_steps", "conservative_weight",
                            "demo_margin_weight", "n_step_returns", "oracle_labels", "exploration_temperature",
-                           "priority_alpha", "priority_beta"})
+                           "priority_alpha", "priority_beta", "shift_cells"})
 
 
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:

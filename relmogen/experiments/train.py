@@ -188,7 +188,7 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
     optional = {key: getattr(params, key) for key in
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
                  "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels",
-                 "exploration_temperature", "priority_alpha", "priority_beta")
+                 "exploration_temperature", "priority_alpha", "priority_beta", "shift_cells")
                 if getattr(params, key) is not None}
     return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                        demo_margin_weight=params.demo_margin_weight,

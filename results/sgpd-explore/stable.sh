@@ -7,7 +7,11 @@
 # actions drawn from softmax(Q / 1) instead of uniformly (algo.exploration_temperature=1, eighth
 # session); prioritized is boltzmann with proportional prioritized replay (algo.priority_alpha=0.6,
 # beta 0.4 -> 1 over the exploration steps; ninth session); unet is boltzmann with the U-Net Q-map
-# head instead of the skip head (algo.qmap_unet, tenth session).  VARIANT TASK SEED CPU_HOURS
+# head instead of the skip head (algo.qmap_unet, tenth session); myopic is boltzmann with discount 0.5, so
+# the bootstrapped max over 24,576 actions no longer swamps the rare closing rewards; shift is boltzmann
+# with arm pushes shifted up to 3 cells with their images (algo.shift_cells=3), so a place alone no
+# longer predicts a push's reward, and myopic-shift is both (eleventh session).
+# VARIANT TASK SEED CPU_HOURS
 set -euo pipefail
 VARIANT=$1; TASK=$2; SEED=$3; HOURS=$4; shift 4
 case $VARIANT in
@@ -19,7 +23,10 @@ case $VARIANT in
                       --set algo.priority_beta=0.4) ;;
   unet) extra=(--set algo.gamma=0.95 --set algo.exploration_temperature=1.0 --set algo.qmap_skip=false
                --set algo.qmap_unet=true) ;;
-  *) echo "unknown variant $VARIANT (cql, slow, gamma, boltzmann, prioritized or unet)" >&2; exit 2 ;;
+  myopic) extra=(--set algo.gamma=0.5 --set algo.exploration_temperature=1.0) ;;
+  shift) extra=(--set algo.gamma=0.95 --set algo.exploration_temperature=1.0 --set algo.shift_cells=3) ;;
+  myopic-shift) extra=(--set algo.gamma=0.5 --set algo.exploration_temperature=1.0 --set algo.shift_cells=3) ;;
+  *) echo "unknown variant $VARIANT (cql, slow, gamma, boltzmann, prioritized, unet, myopic, shift or myopic-shift)" >&2; exit 2 ;;
 esac
 bash "$(dirname "$0")/train.sh" $TASK $SEED $HOURS --set env.push_frame=surface --set algo.qmap_skip=true \
   --set run.eval_every_episodes=200 "${extra[@]}" --out runs/sgpd-stable-$VARIANT "$@"
