@@ -11,6 +11,10 @@ fronts and door edges look alike wherever they appear, so translation is a prior
 allows, in the spirit of DrQ (Kostrikov et al. 2021) and of Transporter networks' translation
 equivariance (Zeng et al. 2020). Shifts keep the cell inside the map; base actions, the local map
 and the next state (the TD target) are left as they are. Only the task reward is used.
+
+Measured in ``results/sgpd-explore`` (eleventh session), ArrangeKitchenMM seed 0 with m = 3: an
+update costs the same (0.75-0.81 against 0.80-0.84 CPU s), and at episode 300 the greedy push
+was still one cell and bin in 15 of 16 oracle states: not yet a fix at that length.
 """
 
 from __future__ import annotations
