@@ -32,9 +32,10 @@ Optional research add-ons, all ours and off by default, live in ``relmogen/agent
 ``conservative_weight`` (CQL), ``demo_margin_weight`` (DQfD's margin), ``keep_demonstrations``
 (the replay's ``algo.demo_keep``), ``n_step_returns``, ``oracle_labels`` (DAgger-style
 labels), ``exploration_temperature`` (Boltzmann exploration), ``priority_alpha`` (prioritized
-replay) and ``shift_cells`` (shift augmentation of arm pushes); ``env_policy(skip_no_ops=True)`` is a test-time rule. ``QMapReplayBuffer`` is
-``CellMaskReplayBuffer`` with the add-ons' replay mixins, and ``RelmogenDQN`` adds their loss
-terms to the Huber loss; with every add-on off it is the plain masked Double DQN.
+replay) and ``shift_cells`` (shift augmentation of arm pushes); ``env_policy(skip_no_ops=True)``
+is a test-time rule. ``QMapReplayBuffer`` is ``CellMaskReplayBuffer`` with the add-ons' replay
+mixins, and ``RelmogenDQN`` adds their loss terms to the Huber loss; with every add-on off it is
+the plain masked Double DQN.
 """
 
 from __future__ import annotations

@@ -232,13 +232,16 @@ class SubgoalRControl(SubgoalControl):
 
 
 def decode_indices(indices, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """SGP-D action indices (any shape) -> (is_arm, yaw or push bin, cell row i, cell column j):
-    the L base maps come first, then the K arm maps, each Q x Q."""
-    indices = np.asarray(indices)
+    """SGP-D action indices (any shape; an int, a list, a NumPy array or an integer torch tensor,
+    whose type the results keep) -> (is_arm, yaw or push bin, cell row i, cell column j): the L
+    base maps come first, then the K arm maps, each Q x Q."""
+    if not hasattr(indices, "shape"):
+        indices = np.asarray(indices)
     base_size = YAW_BINS * q * q
     is_arm = indices >= base_size
-    bin_, cell = np.divmod(np.where(is_arm, indices - base_size, indices), q * q)
-    return is_arm, bin_, *np.divmod(cell, q)
+    within_maps = indices - base_size * is_arm
+    bin_, cell = within_maps // (q * q), within_maps % (q * q)
+    return is_arm, bin_, cell // q, cell % q
 
 
 def qmap_size_for(image_size: int, qmap_size: int | None = None) -> int:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import torch as th
 
-from relmogen.envs.subgoal_controls import YAW_BINS
+from relmogen.envs.subgoal_controls import YAW_BINS, decode_indices
 
 
 def random_cell_shifts(cells: th.Tensor, q: int, max_cells: int, movable: th.Tensor) -> th.Tensor:
@@ -53,14 +53,11 @@ def translate_observation(image: th.Tensor, rows: th.Tensor, cols: th.Tensor, ch
 def shift_arm_pushes(observations: dict[str, th.Tensor], actions: th.Tensor, q: int, max_cells: int,
                      rgb_channels_first: bool) -> tuple[dict[str, th.Tensor], th.Tensor]:
     """The batch with every arm push's image and cell shifted together (see the module docstring).
-    ``actions`` (B, 1) are SGP-D indices (``relmogen.envs.subgoal_controls.decode_indices`` order)."""
+    ``actions`` (B, 1) are SGP-D indices (``decode_indices`` order)."""
     image_size = observations["rgb"].shape[-1] if rgb_channels_first else observations["rgb"].shape[-2]
     pixels_per_cell = image_size // q
     index = actions.reshape(-1).long()
-    base_size = YAW_BINS * q * q
-    is_arm = index >= base_size
-    push_bin, cell = th.div(index - base_size, q * q, rounding_mode="floor"), (index - base_size) % (q * q)
-    i, j = th.div(cell, q, rounding_mode="floor"), cell % q
+    is_arm, push_bin, i, j = decode_indices(index, q)
     di = random_cell_shifts(i, q, max_cells, is_arm)
     dj = random_cell_shifts(j, q, max_cells, is_arm)
     rows, cols = di * pixels_per_cell, dj * pixels_per_cell
@@ -68,5 +65,5 @@ def shift_arm_pushes(observations: dict[str, th.Tensor], actions: th.Tensor, q: 
     shifted["rgb"] = translate_observation(observations["rgb"], rows, cols, rgb_channels_first)
     depth = observations["depth"]
     shifted["depth"] = translate_observation(depth, rows, cols, channels_first=depth.shape[-1] != 1)
-    moved = base_size + push_bin * q * q + (i + di) * q + (j + dj)
+    moved = YAW_BINS * q * q + push_bin * q * q + (i + di) * q + (j + dj)
     return shifted, th.where(is_arm, moved, index).reshape(actions.shape).to(actions.dtype)
