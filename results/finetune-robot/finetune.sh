@@ -5,7 +5,7 @@
 # transitions: SEED CPU_HOURS [more train args]
 # The source runs are runs/p2mg/ on the machine that trained them.
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; HOURS=$2; shift 2
 source_run=$(ls -d runs/p2mg/PushDoorNav__relmogen-r__${SEED}__2* | tail -1)
 relmogen train --init-from $source_run/checkpoints/$(cat $source_run/checkpoints/best) --task PushDoorNav --algo relmogen-r \

@@ -2,7 +2,7 @@
 # Phase 2 of twophase.sh (clearance CLEARANCE) from the same phase-1 run, with a larger cost per
 # subgoal that executed nothing (env.noop_cost; the cpu preset's 0.1): SEED P2_CPU_HOURS CLEARANCE NOOP_COST
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; P2=$2; C=$3; NOOP=$4
 run=$(ls -d runs/clear-p1/PushDoorNav__relmogen-r__${SEED}__2* | tail -1)
 relmogen train --init-from $run --init-replay --task PushDoorNav --algo relmogen-r --seed $SEED --preset cpu \

@@ -5,7 +5,7 @@
 # phase 2 from its weights and replay, checking on, P2_CPU_HOURS (runs/clear-p2).
 # SEED P2_CPU_HOURS CLEARANCE
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; P2=$2; C=$3
 relmogen train --task PushDoorNav --algo relmogen-r --seed $SEED --preset cpu --episodes 1000 \
   --set env.subgoal_feedback=true --set env.base_goal_clearance=$C --out runs/clear-p1 --quiet

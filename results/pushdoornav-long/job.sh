@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # one job of post.sh: "eval RUN ARGS..." or "finetune scene|robot"
 set -uo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 log=runs/p2free/jobs.log
 echo "$(date +%T) start $*" >> $log
 best_run() {  # the best checkpoint of the phase-2 run whose best checkpoint scored highest over 100 episodes (waits for the three evaluations)

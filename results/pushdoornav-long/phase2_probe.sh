@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # phase 2 as phase2.sh with extra settings, for the degradation probes: SEED P2_CPU_HOURS NAME [train args...]
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; P2=$2; NAME=$3; shift 3
 run=$(ls -d runs/p1/PushDoorNav__relmogen-r__${SEED}__2* | tail -1)
 relmogen train --init-from $run --task PushDoorNav --algo relmogen-r --seed $SEED --preset cpu \

@@ -3,7 +3,7 @@
 # transfer) and latest ones, and the fine-tuning of the best one to office_B and to Movo, two jobs
 # at a time on the 2 cores.
 set -uo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 runs=$(ls -d runs/p2free/PushDoorNav__relmogen-r__[0-9]__*[0-9])
 jobs=runs/p2free/jobs.txt; : > $jobs
 add() { echo "$*" >> $jobs; }

@@ -4,5 +4,5 @@
 # iterations x 4 restarts, a temperature floor of 0.02 and 20-episode periodic evaluations that
 # choose checkpoints/best: SEED P2_CPU_HOURS
 set -euo pipefail
-bash /work/main/results/pushdoornav-long/phase2.sh "$1" "$2" --set 'env.arm_rrt=[100,4]' \
+bash "$(dirname "$0")/../pushdoornav-long/phase2.sh" "$1" "$2" --set 'env.arm_rrt=[100,4]' \
   --set algo.ent_coef_min=0.02 --set run.eval_episodes=20 --out runs/p2mg

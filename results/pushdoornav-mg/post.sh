@@ -2,7 +2,7 @@
 # evaluations of the phase-2 runs (runs/p2mg), two at a time: best and latest checkpoints on 100
 # episodes (seeds 100000+), then best with Lazy PRM for base and arm and with checking off (50)
 set -uo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 runs=$(ls -d runs/p2mg/PushDoorNav__relmogen-r__[0-9]__*[0-9])
 {
   for r in $runs; do echo "$r --checkpoint best --episodes 100"; done

@@ -3,7 +3,7 @@
 # office_A under its phase-2 settings, but with a narrower actor: target entropy -8 (SB3's
 # -dim(A)) and a temperature floor of 0.005 instead of -4 and 0.02: SEED CPU_HOURS [more train args]
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; HOURS=$2; shift 2
 source_run=$(ls -d runs/p2mg/PushDoorNav__relmogen-r__${SEED}__2* | tail -1)
 relmogen train --init-from $source_run/checkpoints/best --init-replay --task PushDoorNav --algo relmogen-r \

@@ -6,7 +6,7 @@
 # The Table I rerun with 50-episode evaluations passes EVAL_EPISODES=50 and its own OUT.
 # SEED P2_CPU_HOURS CLEARANCE NOOP_COST [EVAL_EPISODES (20)] [OUT (runs/noop-p2)]
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; P2=$2; C=$3; NOOP=$4; EVAL=${5:-20}; OUT=${6:-runs/noop-p2}
 run=$(ls -d runs/clear-p1/PushDoorNav__relmogen-r__${SEED}__2* | tail -1)
 relmogen train --init-from $run --init-replay --task PushDoorNav --algo relmogen-r --seed $SEED --preset cpu \

@@ -4,7 +4,7 @@
 # same periodic 50-episode validation. Then evaluate its last checkpoint (no choice) on 100
 # episodes of seeds 100000+ and of fresh seeds 200000+.  SEED LR TOTAL_CPU_HOURS
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; LR=$2; TOTAL=$3
 src=$(ls -d runs/noop50-p2/PushDoorNav__relmogen-r__${SEED}__2*[0-9] | tail -1)
 run=runs/noop50-p3/$(basename $src)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # phase 2 of PushDoorNav relmogen-r once phase 1's trainer ended: SEED P2_CPU_HOURS
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; P2=$2
 while pgrep -f "relmogen train --task PushDoorNav --algo relmogen-r --seed $SEED --preset cpu --episodes 1000" > /dev/null; do sleep 10; done
 run=$(ls -d runs/p1/PushDoorNav__relmogen-r__${SEED}__* | tail -1)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # two-phase PushDoorNav relmogen-r: SEED P2_CPU_HOURS
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; P2=$2
 relmogen train --task PushDoorNav --algo relmogen-r --seed $SEED --preset cpu --episodes 1000 \
   --set env.subgoal_feedback=true --out runs/p1 --quiet

@@ -5,7 +5,7 @@
 # The results go to RUN/validation/ (not RUN/eval/, the test evaluations); choose.py ranks them.
 # RUN_DIR...
 set -uo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 for r in "$@"; do for c in $r/checkpoints/evaluated_*; do echo "$r $(basename $c)"; done; done |
   xargs -P 2 -L 1 bash -c 'relmogen eval $0 --checkpoint $1 --episodes 30 --seed 20020 --json > /dev/null 2>> $0.validate.log &&
     mkdir -p $0/validation && mv $0/eval/*_$1_seed20020.json $0/validation/'

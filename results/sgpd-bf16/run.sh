@@ -3,7 +3,7 @@
 # 1,200 episodes, at most 0.6 CPU h) with the Q-map network under bfloat16 autocast
 # (algo.qmap_bf16=true), then 100 greedy episodes on seeds 100000+: does bf16 learn as float32 did?  SEED
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1
 relmogen train --task PointNav --algo relmogen-d --seed $SEED --preset cpu --episodes 1200 \
   --out runs/sgpd-bf16 --set run.eval_every_episodes=200 --set max_cpu_hours=0.6 --set algo.qmap_bf16=true --quiet

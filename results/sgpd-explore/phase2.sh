@@ -4,7 +4,7 @@
 # from where SOURCE left it (EPS_NOW, linearly to 0.05 over STEPS_LEFT more steps) and the 6 CPU h
 # budget minus what SOURCE spent (CPU_HOURS).   SOURCE TASK SEED EPS_NOW STEPS_LEFT CPU_HOURS [VARIANT]
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SOURCE=$1; TASK=$2; SEED=$3; EPS=$4; STEPS=$5; HOURS=$6; VARIANT=${7:-gamma}
 case $VARIANT in
   gamma) extra=(--set algo.gamma=0.95) ;;

@@ -1,19 +1,5 @@
 #!/usr/bin/env bash
 # One seed of the ArrangeKitchenMM relmogen-d row, reward only: the sgpd-explore Boltzmann recipe
-# (results/sgpd-explore/stable.sh boltzmann: cpu preset, 32 x 32 Q maps, pushes into the seen
-# surface, skip head, gamma 0.95, 3-step returns, replay 5e4, epsilon 1.0 -> 0.05 over 5e4 steps
-# with exploratory actions from softmax(Q)) for 1,500 episodes (at most 6 CPU h); a run stopped
-# early (SIGTERM) is resumed. Then 50 greedy and 50 epsilon-greedy episodes (the run's final
-# epsilon), arm collision checking on, seeds 100000+.  SEED
-set -euo pipefail
-cd /work/main && source .venv/bin/activate
-SEED=$1; EPISODES=1500; OUT=runs/sgpd-stable-boltzmann
-run=$(ls -d $OUT/ArrangeKitchenMM__relmogen-d__${SEED}__2*[0-9] 2>/dev/null | tail -1 || true)
-if [ -z "$run" ]; then
-  bash results/sgpd-explore/stable.sh boltzmann ArrangeKitchenMM $SEED 6 --episodes $EPISODES
-  run=$(ls -d $OUT/ArrangeKitchenMM__relmogen-d__${SEED}__2*[0-9] | tail -1)
-elif [ ! -f "$run/done.json" ]; then
-  relmogen train --resume $run --episodes $EPISODES --quiet
-fi
-relmogen eval $run --episodes 50 --seed 100000 --json > /dev/null 2>> $run.eval.log
-relmogen eval $run --episodes 50 --seed 100000 --stochastic --json > /dev/null 2>> $run.eval.log
+# (discount 0.95, exploratory actions from softmax(Q)) for 1,500 episodes (at most 6 CPU h), then
+# its evaluations (../relmogen-d-seed.sh says what it does).  SEED
+exec bash "$(dirname "$0")/../relmogen-d-seed.sh" boltzmann ArrangeKitchenMM "$1" 1500

@@ -4,7 +4,7 @@
 # epsilon-greedy episodes (the run's final epsilon) and 50 greedy episodes with Lazy PRM for the
 # base, seeds 100000+.  SEED
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1
 run=$(ls -d runs/sgpd-pointnav/PointNav__relmogen-d__${SEED}__2*[0-9] 2>/dev/null | tail -1 || true)
 if [ -z "$run" ] || [ ! -f "$run/done.json" ]; then

@@ -5,6 +5,6 @@
 # to RUN/eval_fresh_seeds/ so that the report does not pool them with the seeds-100000 evaluation.
 # RUN_DIR...
 set -uo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 printf '%s\n' "$@" | xargs -P 2 -I{} bash -c 'relmogen eval {} --checkpoint best --episodes 100 --seed 200000 --json \
   > /dev/null 2>> {}.fresh.log && mkdir -p {}/eval_fresh_seeds && mv {}/eval/*_seed200000.json {}/eval_fresh_seeds/'

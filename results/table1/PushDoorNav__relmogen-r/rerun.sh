@@ -6,7 +6,7 @@
 # evaluation of `best` and the Lazy PRM planner swap (50 episodes), seeds 100000+.
 # SEED P2_CPU_HOURS [EVAL_EPISODES (20)]
 set -euo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 SEED=$1; P2=$2; EVAL=${3:-20}
 OUT=runs/noop-p2; [ "$EVAL" = 20 ] || OUT=runs/noop$EVAL-p2
 phase1=$(ls -d runs/clear-p1/PushDoorNav__relmogen-r__${SEED}__2* 2>/dev/null | tail -1 || true)

@@ -3,7 +3,7 @@
 # Lazy PRM base with RRT-Connect arm, RRT-Connect base with Lazy PRM arm, arm collision checking off.
 # [OUT (runs/noop-p2): the phase-2 folder of rerun.sh]
 set -uo pipefail
-cd /work/main && source .venv/bin/activate
+cd "$(dirname "$0")/../../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 OUT=${1:-runs/noop-p2}
 runs=$(ls -d $OUT/PushDoorNav__relmogen-r__[0-2]__*[0-9])
 {
