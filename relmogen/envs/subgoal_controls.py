@@ -244,6 +244,11 @@ def decode_indices(indices, q: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     return is_arm, bin_, cell // q, cell % q
 
 
+def encode_indices(is_arm, bin_, i, j, q: int):
+    """The inverse of ``decode_indices``, for the same types (ints, NumPy arrays, integer torch tensors)."""
+    return is_arm * (YAW_BINS * q * q) + (bin_ * q + i) * q + j
+
+
 def qmap_size_for(image_size: int, qmap_size: int | None = None) -> int:
     """Q, the side of SGP-D's Q maps: ``qmap_size``, or image_size / 4 (the paper's ratio) when None.
     Q must divide the image size, so that every cell covers the same square of pixels."""
@@ -285,9 +290,10 @@ class SubgoalDControl(SubgoalControl):
         return "arm" if is_arm else "base", int(bin_), int(i), int(j)
 
     def encode(self, part: str, bin_: int, i: int, j: int) -> int:
-        if part == "base":
-            return int(np.ravel_multi_index((bin_, i, j), (YAW_BINS, self.q, self.q)))
-        return self.num_base + int(np.ravel_multi_index((bin_, i, j), (PUSH_BINS, self.q, self.q)))
+        bins = YAW_BINS if part == "base" else PUSH_BINS
+        if not (0 <= bin_ < bins and 0 <= i < self.q and 0 <= j < self.q):
+            raise ValueError(f"no {part} action with bin {bin_} at cell ({i}, {j}): {bins} bins, {self.q} x {self.q} cells")
+        return int(encode_indices(part != "base", bin_, i, j, self.q))
 
     def step(self, action) -> StepOutcome:
         index = self._validate(action)

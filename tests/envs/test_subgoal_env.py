@@ -3,8 +3,10 @@
 import numpy as np
 import pybullet as p
 import pytest
+import torch
 
 from relmogen.envs.relmogen_env import RelmogenEnv
+from relmogen.envs.subgoal_controls import decode_indices, encode_indices
 from relmogen.motion_generation.generator import collides_beyond, contact_depths
 from relmogen.motion_generation.planners import BACKENDS
 from relmogen.simulation.contacts import Collision
@@ -253,7 +255,16 @@ def test_subgoal_d_index_mapping_round_trips():
         assert control.encode(*control.decode(int(index))) == index
     assert control.decode(0) == ("base", 0, 0, 0)
     assert control.decode(12 * 32 * 32) == ("arm", 0, 0, 0)
+    with pytest.raises(ValueError, match="no arm action"):
+        control.encode("arm", 12, 0, 0)
     env.close()
+
+
+@pytest.mark.parametrize("as_array", [np.asarray, torch.as_tensor])
+def test_encode_indices_inverts_decode_indices(as_array):
+    indices = as_array(np.arange(24 * 16 * 16))
+    decoded = decode_indices(indices, 16)
+    assert (encode_indices(*decoded, 16) == indices).all()
 
 
 def test_pointnav_subgoals_are_base_only(nav):

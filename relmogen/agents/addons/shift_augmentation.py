@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import torch as th
 
-from relmogen.envs.subgoal_controls import YAW_BINS, decode_indices
+from relmogen.envs.subgoal_controls import decode_indices, encode_indices
 
 
 def random_cell_shifts(cells: th.Tensor, q: int, max_cells: int, movable: th.Tensor) -> th.Tensor:
@@ -65,5 +65,5 @@ def shift_arm_pushes(observations: dict[str, th.Tensor], actions: th.Tensor, q: 
     shifted["rgb"] = translate_observation(observations["rgb"], rows, cols, rgb_channels_first)
     depth = observations["depth"]
     shifted["depth"] = translate_observation(depth, rows, cols, channels_first=depth.shape[-1] != 1)
-    moved = YAW_BINS * q * q + push_bin * q * q + (i + di) * q + (j + dj)
+    moved = encode_indices(True, push_bin, i + di, j + dj, q)
     return shifted, th.where(is_arm, moved, index).reshape(actions.shape).to(actions.dtype)
