@@ -44,8 +44,8 @@ HEADER = """# Table I: our runs beside the paper
 Our reward-only runs (neither demonstrations nor oracle labels; 3 seeds each) against the paper's
 Table I (its mean over 3 seeds). Ours is mean / std / max over seeds (their number in parentheses)
 of the final evaluation: deterministic policy, arm collision checking on, the planners used in
-training, 100 episodes (50 in the relmogen-d rows of the manipulation tasks; each folder's
-`table.md` says) on evaluation seeds from 100000. It evaluates each run's latest checkpoint,
+training, 50-100 episodes (each folder's `table.md` gives `eval_episodes`) on evaluation seeds
+from 100000. It evaluates each run's latest checkpoint,
 except where a cell says "best checkpoint": there it evaluates the model that the run's periodic
 evaluations (episodes on other seeds, below 100000; the folder's COMMANDS.md says which) chose
 during training, an early-stopping protocol. Each `<Task>__<algorithm>/` folder holds its report
