@@ -6,10 +6,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/../../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 [[ $# -eq 1 && $1 =~ ^[0-9]+$ ]] || { echo "usage: $0 SEED" >&2; exit 2; }
-SRC=$(ls -d runs/sgpd-stable-gamma/ArrangeChairMM__relmogen-d__$1__2*[0-9] 2>/dev/null | tail -1 || true)
-[ -n "$SRC" ] && [ -f "$SRC/done.json" ] || { echo "seed $1 has no finished run: bash $(dirname "$0")/run.sh $1 first" >&2; exit 1; }
-OUT=runs/sgpd-stable-gamma-6h; RUN=$OUT/$(basename "$SRC"); mkdir -p $OUT
-[ -e "$RUN" ] || cp -r "$SRC" $OUT/
+OUT=runs/sgpd-stable-gamma-6h; RUN=$(ls -d $OUT/ArrangeChairMM__relmogen-d__$1__2*[0-9] 2>/dev/null | tail -1 || true)
+if [ -z "$RUN" ]; then  # not yet continued (or restored from a carried model): copy the finished run
+  SRC=$(ls -d runs/sgpd-stable-gamma/ArrangeChairMM__relmogen-d__$1__2*[0-9] 2>/dev/null | tail -1 || true)
+  [ -n "$SRC" ] && [ -f "$SRC/done.json" ] || { echo "seed $1 has no finished run: bash $(dirname "$0")/run.sh $1 first" >&2; exit 1; }
+  mkdir -p $OUT && cp -r "$SRC" $OUT/ && RUN=$OUT/$(basename "$SRC")
+fi
 relmogen train --resume "$RUN" --episodes 4600 --quiet
 [ -f "$RUN/done.json" ] || { echo "$RUN stopped before its budget; run this again to resume" >&2; exit 1; }
 relmogen eval "$RUN" --episodes 50 --seed 100000 --json > /dev/null 2>> "$RUN.eval.log"
