@@ -58,7 +58,8 @@ def has_metric(task: str, metric: str) -> bool:
 def final_evaluation(run_dir: Path, checkpoint: str = "latest") -> dict | None:
     """The run's reference evaluation of its ``checkpoint`` (``latest``, or ``best``: the model
     its periodic evaluations chose): arm collision checking on, with the planners it was
-    trained with, the most episodes, then the newest (planner-swap and scene-transfer
+    trained with, of the newest checkpoint evaluated (a run continued to more episodes keeps its
+    earlier evaluations), the most episodes, then the newest (planner-swap and scene-transfer
     evaluations sit beside it and are reported separately); else, for ``latest``, the last
     periodic one."""
     if checkpoint not in REFERENCE_CHECKPOINTS:
@@ -73,10 +74,22 @@ def final_evaluation(run_dir: Path, checkpoint: str = "latest") -> dict | None:
                      and (config.env.scene is None or e.get("scene") == config.env.scene)
                      and e.get("robot", config.env.robot) == config.env.robot]
     if same_planners:
-        best = max(same_planners, key=lambda e: (e.get("episodes", 0), e["_mtime"]))
+        best = max(same_planners, key=lambda e: (_checkpoint_episode(e), e.get("episodes", 0), e["_mtime"]))
         return {k: v for k, v in best.items() if k != "_mtime"}
     periodic = read_periodic_evaluations(run_dir) if checkpoint == "latest" else []
     return periodic[-1] if periodic else None
+
+
+def _checkpoint_episode(evaluation: dict) -> int:
+    """The training episode of the checkpoint an evaluation evaluated; -1 where it records none."""
+    return evaluation.get("checkpoint_episode") or -1
+
+
+def newest_checkpoint_only(evaluations: list[dict]) -> list[dict]:
+    """Of one run's evaluations in one setting, those of its newest checkpoint: an evaluation of an
+    earlier checkpoint (say before the run was continued) is superseded, not another seed."""
+    newest = max((_checkpoint_episode(e) for e in evaluations), default=-1)
+    return [e for e in evaluations if _checkpoint_episode(e) == newest]
 
 
 def read_evaluation(path: Path) -> dict:
@@ -258,8 +271,11 @@ def setting_rows(groups: dict[tuple[str, str], list[dict]]) -> list[dict]:
     for (task, algo), runs in sorted(groups.items()):
         by_setting: dict[tuple, list[tuple[dict, dict]]] = defaultdict(list)
         for run in runs:
+            run_settings: dict[tuple, list[dict]] = defaultdict(list)
             for evaluation in run.get("all_evals", []):
-                by_setting[tuple(evaluation_setting(evaluation).values())].append((run, evaluation))
+                run_settings[tuple(evaluation_setting(evaluation).values())].append(evaluation)
+            for setting, evaluations in run_settings.items():
+                by_setting[setting] += [(run, evaluation) for evaluation in newest_checkpoint_only(evaluations)]
         for setting in sorted(by_setting, key=lambda values: [text_cell(value) for value in values]):
             pairs = by_setting[setting]
             evaluated = list({str(run["run_dir"]): run for run, _ in pairs}.values())

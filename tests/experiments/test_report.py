@@ -85,6 +85,22 @@ def test_every_evaluation_setting_gets_a_row(tmp_path):
     assert [row["robot"] for row in rows if row["base_planner"] == "rrt_connect" and row["eval_episodes"] == 50] == ["movo"]
 
 
+def test_a_continued_run_is_reported_at_its_newest_checkpoint_its_earlier_evaluation_superseded(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", s, 0.5, 0.4) for s in (0, 1)]
+    setting = {"spl": 0.1, "closed_5": 0.0, "closed_10": 0.0, "scene": "office_A", "base_planner": "rrt_connect",
+               "arm_planner": "rrt_connect", "arm_collision": True}
+    for run, (early, late) in zip(runs, [(0.1, 0.6), (0.3, 0.8)]):
+        for name, episode, rate in (("early", 2600, early), ("late", 4600, late)):
+            (run / "eval" / f"{name}_collision-on.json").write_text(json.dumps(
+                setting | {"success_rate": rate, "episodes": 50, "checkpoint": f"episode_{episode:07d}",
+                           "checkpoint_episode": episode}))
+    (runs[0] / "eval" / "early_collision-on.json").touch()  # the earlier checkpoint's file is the newer
+    assert final_evaluation(runs[0])["success_rate"] == 0.6
+    rows = json.loads(Path(write_report(runs, tmp_path / "report")["json"]).read_text())["rows"]
+    row = next(row for row in rows if not row["reference"] and row["eval_episodes"] == 50)
+    assert row["seeds"] == 2 and row["success_rate"]["mean"] == pytest.approx(0.7)
+
+
 def test_curves_show_items_closed_for_tasks_that_count_them(tmp_path):
     navigation = fake_run(tmp_path, "relmogen-r", 0, 0.5, 0.4)
     assert not _counts_items([{"curve": read_curve(navigation / "episodes.csv")}])
