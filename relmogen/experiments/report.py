@@ -82,14 +82,20 @@ def final_evaluation(run_dir: Path, checkpoint: str = "latest") -> dict | None:
 
 def _checkpoint_episode(evaluation: dict) -> int:
     """The training episode of the checkpoint an evaluation evaluated; -1 where it records none."""
-    return evaluation.get("checkpoint_episode") or -1
+    episode = evaluation.get("checkpoint_episode")
+    return -1 if episode is None else episode
 
 
-def newest_checkpoint_only(evaluations: list[dict]) -> list[dict]:
-    """Of one run's evaluations in one setting, those of its newest checkpoint: an evaluation of an
-    earlier checkpoint (say before the run was continued) is superseded, not another seed."""
-    newest = max((_checkpoint_episode(e) for e in evaluations), default=-1)
-    return [e for e in evaluations if _checkpoint_episode(e) == newest]
+def evaluations_by_setting(run: dict) -> dict[tuple, list[dict]]:
+    """A run's evaluations by setting (``evaluation_setting``), each setting's of its newest
+    checkpoint only: an evaluation of an earlier checkpoint (say before the run was continued) is
+    superseded, not another seed."""
+    by_setting: dict[tuple, list[dict]] = defaultdict(list)
+    for evaluation in run.get("all_evals", []):
+        by_setting[tuple(evaluation_setting(evaluation).values())].append(evaluation)
+    newest = {setting: max(map(_checkpoint_episode, found)) for setting, found in by_setting.items()}
+    return {setting: [e for e in found if _checkpoint_episode(e) == newest[setting]]
+            for setting, found in by_setting.items()}
 
 
 def read_evaluation(path: Path) -> dict:
@@ -271,11 +277,8 @@ def setting_rows(groups: dict[tuple[str, str], list[dict]]) -> list[dict]:
     for (task, algo), runs in sorted(groups.items()):
         by_setting: dict[tuple, list[tuple[dict, dict]]] = defaultdict(list)
         for run in runs:
-            run_settings: dict[tuple, list[dict]] = defaultdict(list)
-            for evaluation in run.get("all_evals", []):
-                run_settings[tuple(evaluation_setting(evaluation).values())].append(evaluation)
-            for setting, evaluations in run_settings.items():
-                by_setting[setting] += [(run, evaluation) for evaluation in newest_checkpoint_only(evaluations)]
+            for setting, evaluations in evaluations_by_setting(run).items():
+                by_setting[setting] += [(run, evaluation) for evaluation in evaluations]
         for setting in sorted(by_setting, key=lambda values: [text_cell(value) for value in values]):
             pairs = by_setting[setting]
             evaluated = list({str(run["run_dir"]): run for run, _ in pairs}.values())

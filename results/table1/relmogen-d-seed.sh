@@ -6,7 +6,7 @@
 # (SIGTERM), or finished at fewer than EPISODES episodes, is resumed from runs/, its CPU time
 # adding up across resumes. A finished run is then evaluated on 50 greedy and 50 epsilon-greedy
 # episodes (the run's final epsilon), arm collision checking on, seeds 100000+.
-#   relmogen-d-seed.sh VARIANT TASK SEED [EPISODES]
+#   relmogen-d-seed.sh VARIANT TASK SEED [EPISODES]   (runs live in runs/sgpd-stable-VARIANT/)
 set -euo pipefail
 cd "$(dirname "$0")/../.." && { [ ! -f .venv/bin/activate ] || source .venv/bin/activate; }
 [[ $# -ge 3 && $3 =~ ^[0-9]+$ && ${4:-1} =~ ^[0-9]+$ ]] || { echo "usage: $0 VARIANT TASK SEED [EPISODES] (SEED and EPISODES integers)" >&2; exit 2; }
