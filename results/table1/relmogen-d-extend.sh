@@ -8,7 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 [[ $# -eq 4 && $3 =~ ^[0-9]+$ && $4 =~ ^[0-9]+$ ]] || { echo "usage: $0 VARIANT TASK SEED EPISODES (SEED and EPISODES integers)" >&2; exit 2; }
-VARIANT=$1; TASK=$2; SEED=$3; OUT=runs/sgpd-stable-$1-6h
+VARIANT=$1; TASK=$2; SEED=$3; OUT=runs/sgpd-stable-$VARIANT-6h
 if ! ls -d $OUT/${TASK}__relmogen-d__${SEED}__2*[0-9] > /dev/null 2>&1; then  # not yet continued: copy the finished run
   SRC=$(ls -d runs/sgpd-stable-$VARIANT/${TASK}__relmogen-d__${SEED}__2*[0-9] 2>/dev/null | tail -1 || true)
   [ -n "$SRC" ] && [ -f "$SRC/done.json" ] || { echo "$TASK seed $SEED has no finished run in runs/sgpd-stable-$VARIANT: run its row's run.sh $SEED first" >&2; exit 1; }
