@@ -8,7 +8,7 @@
                     [--arm-planner Y] [--arm-collision on|off] [--video PATH.gif|mp4] [--json]
     relmogen bench env [--task T] [--samples N] [--image-size PX] [--subgoal-samples N] [--json]
     relmogen bench planner [--problems N] [--seed S] [--json]
-    relmogen bench train [--task T] [--updates N] [--subgoals N] [--json]
+    relmogen bench train [--task T] [--updates N] [--subgoals N] [--probes] [--json]
     relmogen bench sweep [--task T] [--preset NAME] [--episodes N] [--json]
     relmogen train --task T --algo A [--seed S] [--preset NAME|FILE.yaml] [--episodes N] [--max-hours H]
                    [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
@@ -59,8 +59,16 @@ def _print_metrics(metrics: dict, as_json: bool, title: str) -> None:
     table.add_column("metric")
     table.add_column("value", justify="right")
     for key, value in metrics.items():
-        table.add_row(key, f"{value:.3f}" if isinstance(value, float) else str(value))
+        table.add_row(key, _metric_text(value))
     Console().print(table)
+
+
+def _metric_text(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.3f}"
+    if isinstance(value, dict):
+        return ", ".join(f"{key} {_metric_text(item)}" for key, item in value.items())
+    return str(value)
 
 
 def cmd_tasks(args: argparse.Namespace) -> int:
@@ -278,6 +286,8 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    from relmogen.bench.host import host_info
+
     if args.what == "env":
         from relmogen.bench.env_bench import bench_env
 
@@ -288,26 +298,30 @@ def cmd_bench(args: argparse.Namespace) -> int:
     elif args.what == "sweep":
         from relmogen.bench.sweep_bench import bench_sweep
 
-        result = bench_sweep(task=args.task or "PointNav", preset=args.preset, episodes=args.episodes)
+        result = {**bench_sweep(task=args.task or "PointNav", preset=args.preset, episodes=args.episodes),
+                  "host": host_info()}
         print(json.dumps(result, sort_keys=True) if args.json else json.dumps(result, indent=1))
         return 0
     elif args.what == "train":
         from relmogen.bench.train_bench import bench_train
 
-        result = bench_train(task=args.task or "PushDoorNav", updates=args.updates, subgoals=args.subgoals)
+        result = {**bench_train(task=args.task or "PushDoorNav", updates=args.updates, subgoals=args.subgoals,
+                                probes=args.probes), "host": host_info()}
         print(json.dumps(result, sort_keys=True) if args.json else json.dumps(result, indent=1))
         return 0
     else:  # argparse restricts the choices
         raise AssertionError(args.what)
-    _print_metrics(result, args.json, f"bench {args.what}")
+    _print_metrics({**result, "host": host_info()}, args.json, f"bench {args.what}")
     return 0
 
 
 def _bench_planner(args: argparse.Namespace) -> int:
+    from relmogen.bench.host import host_info
     from relmogen.bench.planner_bench import bench_planner, planning_runs, print_planner_table
 
     if args.json:
-        print(json.dumps(bench_planner(problems=args.problems, seed=args.seed, robot=args.robot), sort_keys=True))
+        result = bench_planner(problems=args.problems, seed=args.seed, robot=args.robot)
+        print(json.dumps({**result, "host": host_info()}, sort_keys=True))
         return 0
     from rich.console import Console
     from rich.progress import Progress
@@ -558,6 +572,9 @@ def _add_bench(sub) -> None:
     bench.add_argument("--preset", default="tiny", help="sweep: preset of the runs (default tiny)")
     bench.add_argument("--episodes", type=_positive_int, default=10, help="sweep: episodes per run (default 10)")
     bench.add_argument("--updates", type=_positive_int, default=10, help="train: gradient steps timed per run")
+    bench.add_argument("--probes", action="store_true",
+                       help="train: also the paper preset (128 px), the Q-map resolutions and bfloat16 (slow on "
+                            "CPUs without native bfloat16)")
     bench.add_argument("--subgoals", type=_positive_int, default=1000,
                        help="train: subgoals of the real relmogen-r cpu training run, counted from its first update")
     bench.add_argument("--samples", type=_positive_int, default=200, help="env: joint-velocity steps")

@@ -183,12 +183,12 @@ class QMapQNetwork(BasePolicy):
 
     def __init__(self, observation_space: spaces.Dict, action_space: spaces.Discrete,
                  widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128, skip: bool = False,
-                 bf16: bool = False, normalize_images: bool = False, unet: bool = False):
+                 bf16: bool = False, normalize_images: bool = False, unet: bool = False, head_kernel: int = 4):
         super().__init__(observation_space, action_space, normalize_images=False)  # the net scales its inputs
         self.widths, self.head_width, self.skip, self.bf16 = tuple(widths), int(head_width), bool(skip), bool(bf16)
-        self.unet = bool(unet)
+        self.unet, self.head_kernel = bool(unet), int(head_kernel)
         self.net = QMapNetwork(observation_space, self.widths, self.head_width, self.skip, q=map_side(action_space.n),
-                               bf16=self.bf16, unet=self.unet)
+                               bf16=self.bf16, unet=self.unet, head_kernel=self.head_kernel)
         if self.net.n_actions != action_space.n:
             raise ValueError(f"Q maps give {self.net.n_actions} actions, the action space has {action_space.n}")
 
@@ -200,7 +200,7 @@ class QMapQNetwork(BasePolicy):
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width,
-                    skip=self.skip, bf16=self.bf16, unet=self.unet)
+                    skip=self.skip, bf16=self.bf16, unet=self.unet, head_kernel=self.head_kernel)
 
 
 class QMapDQNPolicy(DQNPolicy):
@@ -208,19 +208,19 @@ class QMapDQNPolicy(DQNPolicy):
 
     def __init__(self, observation_space: spaces.Dict, action_space: spaces.Discrete, lr_schedule,
                  widths: tuple[int, ...] = (32, 64, 64, 128), head_width: int = 128, skip: bool = False,
-                 bf16: bool = False, unet: bool = False, **kwargs: Any):
+                 bf16: bool = False, unet: bool = False, head_kernel: int = 4, **kwargs: Any):
         self.widths, self.head_width, self.skip, self.bf16 = tuple(widths), int(head_width), bool(skip), bool(bf16)
-        self.unet = bool(unet)
+        self.unet, self.head_kernel = bool(unet), int(head_kernel)
         kwargs["normalize_images"] = False
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
 
     def make_q_net(self) -> QMapQNetwork:
         return QMapQNetwork(self.observation_space, self.action_space, self.widths, self.head_width,
-                            self.skip, self.bf16, unet=self.unet).to(self.device)
+                            self.skip, self.bf16, unet=self.unet, head_kernel=self.head_kernel).to(self.device)
 
     def _get_constructor_parameters(self) -> dict[str, Any]:
         return dict(super()._get_constructor_parameters(), widths=self.widths, head_width=self.head_width,
-                    skip=self.skip, bf16=self.bf16, unet=self.unet)
+                    skip=self.skip, bf16=self.bf16, unet=self.unet, head_kernel=self.head_kernel)
 
 
 # ------------------------------------------------------------------ replay buffer

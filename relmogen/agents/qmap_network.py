@@ -36,6 +36,14 @@ scale between, for the same update cost (0.81 against 0.79 CPU s). Measured on o
 training episodes closed more items early (0.52-0.65 against 0.28-0.37 per episode in
 episodes 101-300), but at episode 520 its greedy push too was one cell and bin in all 16 states.
 
+The convolutions run channels-last (weights and inputs; oneDNN's faster kernels on CPU, and
+cuDNN's NHWC ones on a GPU): the same Q values as the NCHW layout, for 1.1-1.3x cheaper updates
+on the AMD EPYC host (``relmogen bench train``, ``qmap_variants``).
+
+``head_kernel`` (ours; default 4, the paper's) is the kernel of the head's last upsampling: with
+2 each Q x Q cell comes from one feature pixel below it instead of a 4 x 4 neighbourhood, a
+quarter of that layer's arithmetic, which is the network's largest at 32 x 32.
+
 With ``bf16`` (ours, off by default) every layer but the last runs under bfloat16 autocast;
 the last layer and the Q values stay float32, so actions whose values differ by less than
 bfloat16's step (about 0.03 at Q = 5) are still told apart. Weights, gradients and the
@@ -56,6 +64,7 @@ from relmogen.agents.networks import DEPTH_SCALE
 from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS
 
 NUM_MAPS = YAW_BINS + PUSH_BINS
+HEAD_KERNELS = (4, 2)  # the last upsampling's kernel: the paper's 4x4, or 2x2 (ours)
 
 
 def is_channels_first(space: spaces.Box) -> bool:
@@ -77,38 +86,53 @@ def conv_branch(in_channels: int, widths: tuple[int, ...]) -> nn.Sequential:
     return nn.Sequential(*layers)
 
 
-def upsampling(in_channels: int, hidden: int, out_channels: int, stages: int, relu_last: bool) -> list[nn.Module]:
-    """``stages`` 4x4 transposed convolutions with stride 2 (x 2^stages resolution)."""
+def upsampling_layer(in_channels: int, out_channels: int, kernel: int = 4) -> nn.ConvTranspose2d:
+    """x 2 resolution: the paper's 4x4 transposed convolution, or a 2x2 one (each input pixel
+    spreads over its own 2 x 2 output block: a quarter of the arithmetic)."""
+    if kernel not in HEAD_KERNELS:
+        raise ValueError(f"the Q-map head's last kernel must be one of {HEAD_KERNELS}, got {kernel}")
+    return nn.ConvTranspose2d(in_channels, out_channels, kernel, stride=2, padding=(kernel - 2) // 2)
+
+
+def upsampling(in_channels: int, hidden: int, out_channels: int, stages: int, relu_last: bool,
+               last_kernel: int = 4) -> list[nn.Module]:
+    """``stages`` transposed convolutions with stride 2 (x 2^stages resolution): 4x4, the last
+    one ``last_kernel`` x ``last_kernel``."""
     layers: list[nn.Module] = []
     for stage in range(stages):
         last = stage == stages - 1
-        layers.append(nn.ConvTranspose2d(in_channels, out_channels if last else hidden, 4, stride=2, padding=1))
+        layers.append(upsampling_layer(in_channels, out_channels if last else hidden, last_kernel if last else 4))
         if not last or relu_last:
             layers.append(nn.ReLU())
         in_channels = hidden
     return layers
 
 
-def deconv_head(in_channels: int, hidden: int, out_channels: int, stages: int = 2) -> nn.Sequential:
+def deconv_head(in_channels: int, hidden: int, out_channels: int, stages: int = 2,
+                last_kernel: int = 4) -> nn.Sequential:
     """``stages`` transposed convolutions (the paper's 2: S/16 -> S/4); linear output."""
-    return nn.Sequential(*upsampling(in_channels, hidden, out_channels, stages, relu_last=False))
+    return nn.Sequential(*upsampling(in_channels, hidden, out_channels, stages, relu_last=False,
+                                     last_kernel=last_kernel))
 
 
-def skip_head(in_channels: int, skip_channels: int, hidden: int, out_channels: int, stages: int = 2) -> nn.ModuleDict:
+def skip_head(in_channels: int, skip_channels: int, hidden: int, out_channels: int, stages: int = 2,
+              last_kernel: int = 4) -> nn.ModuleDict:
     """Deconvolutions to Q x Q hidden features, then (with the skip features) two 1x1 convs to the maps."""
     return nn.ModuleDict({
-        "up": nn.Sequential(*upsampling(in_channels, hidden, hidden, stages, relu_last=True)),
+        "up": nn.Sequential(*upsampling(in_channels, hidden, hidden, stages, relu_last=True, last_kernel=last_kernel)),
         "out": nn.Sequential(nn.Conv2d(hidden + skip_channels, hidden, 1), nn.ReLU(),
                              nn.Conv2d(hidden, out_channels, 1)),
     })
 
 
-def unet_head(bottleneck_channels: int, skip_channels: list[int], hidden: int, out_channels: int) -> nn.ModuleDict:
+def unet_head(bottleneck_channels: int, skip_channels: list[int], hidden: int, out_channels: int,
+              last_kernel: int = 4) -> nn.ModuleDict:
     """One stage per entry of ``skip_channels`` (coarse to fine): upsample x2, concatenate those
     skip features, fuse by a 1x1 conv; then a 1x1 conv to the maps."""
     up, fuse, in_channels = nn.ModuleList(), nn.ModuleList(), bottleneck_channels
-    for channels in skip_channels:
-        up.append(nn.Sequential(nn.ConvTranspose2d(in_channels, hidden, 4, stride=2, padding=1), nn.ReLU()))
+    for stage, channels in enumerate(skip_channels):
+        kernel = last_kernel if stage == len(skip_channels) - 1 else 4
+        up.append(nn.Sequential(upsampling_layer(in_channels, hidden, kernel), nn.ReLU()))
         fuse.append(nn.Sequential(nn.Conv2d(hidden + channels, hidden, 1), nn.ReLU()))
         in_channels = hidden
     return nn.ModuleDict({"up": up, "fuse": fuse, "out": nn.Conv2d(hidden, out_channels, 1)})
@@ -136,7 +160,7 @@ class QMapNetwork(nn.Module):
 
     def __init__(self, observation_space: spaces.Dict, widths: tuple[int, ...] = (32, 64, 64, 128),
                  head_width: int = 128, skip: bool = False, q: int | None = None, bf16: bool = False,
-                 unet: bool = False):
+                 unet: bool = False, head_kernel: int = 4):
         super().__init__()
         self.bf16 = bool(bf16)
         if skip and unet:
@@ -159,11 +183,14 @@ class QMapNetwork(nn.Module):
         stages = len(widths) - convs_to_q
         if self.unet:  # skips at S/8 ... Q, coarse to fine
             self.unet_skips = list(range(len(widths) - 2, convs_to_q - 2, -1))
-            self.head = unet_head(2 * widths[-1], [2 * widths[i] for i in self.unet_skips], head_width, NUM_MAPS)
+            self.head = unet_head(2 * widths[-1], [2 * widths[i] for i in self.unet_skips], head_width, NUM_MAPS,
+                                  head_kernel)
         elif self.skip:
-            self.head = skip_head(2 * widths[-1], 2 * widths[convs_to_q - 1], head_width, NUM_MAPS, stages)
+            self.head = skip_head(2 * widths[-1], 2 * widths[convs_to_q - 1], head_width, NUM_MAPS, stages,
+                                  head_kernel)
         else:
-            self.head = deconv_head(2 * widths[-1], head_width, NUM_MAPS, stages)
+            self.head = deconv_head(2 * widths[-1], head_width, NUM_MAPS, stages, head_kernel)
+        self.to(memory_format=th.channels_last)
 
     @property
     def n_actions(self) -> int:
@@ -174,10 +201,11 @@ class QMapNetwork(nn.Module):
         rgb = to_channels_first(obs["rgb"].float(), self.rgb_channels_first) / 255.0
         depth = obs["depth"].float()
         depth = depth.permute(0, 3, 1, 2) if depth.shape[-1] == 1 else depth
-        return th.cat([rgb, depth / DEPTH_SCALE], dim=1)
+        return th.cat([rgb, depth / DEPTH_SCALE], dim=1).contiguous(memory_format=th.channels_last)
 
     def map_tensor(self, obs: dict[str, th.Tensor]) -> th.Tensor:
-        return to_channels_first(obs["local_map"].float(), self.map_channels_first) / 255.0
+        local_map = to_channels_first(obs["local_map"].float(), self.map_channels_first) / 255.0
+        return local_map.contiguous(memory_format=th.channels_last)
 
     def q_maps(self, obs: dict[str, th.Tensor]) -> th.Tensor:
         """(B, L + K, Q, Q): channels 0..L-1 base yaw bins, L..L+K-1 arm push directions."""

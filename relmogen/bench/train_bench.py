@@ -9,8 +9,12 @@ with SB3's stock SAC (separate encoders for actor, critic and target), which is 
 shared encoder avoids. For SGP-D the replay memory is reported too (bytes of the allocated
 arrays, per 1e4 transitions and at the preset's buffer size), and the update cost at each
 (image size, Q-map side) of ``QMAP_SETTINGS`` and in float32 against bfloat16 autocast
-(``algo.qmap_bf16``). Then one real training run each of relmogen-r and relmogen-d, and of
-relmogen-d under bfloat16 (``bench_training_run``), gives episodes per CPU-hour.
+(``algo.qmap_bf16``), both only with ``probes``. ``qmap_variants`` times the relmogen-d update of
+each Q-map network of ``QMAP_VARIANTS`` (NCHW against channels-last layout, the cheaper
+``QMAP_LITE`` network), alternated in one process so that the ratios hold on a shared machine.
+Then one real training run each of relmogen-r and relmogen-d (and with ``probes`` of relmogen-d
+under bfloat16; ``bench_training_run``) gives episodes per CPU-hour. The CLI adds ``host``
+(``relmogen.bench.host``): figures from different host kinds differ 2.5-3x.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import torch as th
 from stable_baselines3 import SAC
 from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -70,13 +75,18 @@ def _stock_sac(config, env):
                                                      net_arch=params.net_arch), device="cpu", seed=0)
 
 
-def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0, overrides: tuple[str, ...] = ()) -> dict:
+def _model_with_replay(task: str, algo: str, preset: str, seed: int = 0, overrides: tuple[str, ...] = ()):
+    """(config, vectorised env, model with one batch of real transitions, env steps per second)."""
     config = resolve_config(task, algo, seed=seed, preset=preset, overrides=list(overrides))
     env = _vec_env(config)
     model = build_model(config, env)
     model._setup_learn(total_timesteps=1)  # creates the logger that train() records into
+    return config, env, model, _fill_buffer(model, config.algo_params.batch_size)
+
+
+def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0, overrides: tuple[str, ...] = ()) -> dict:
+    config, env, model, env_sps = _model_with_replay(task, algo, preset, seed, overrides)
     batch = config.algo_params.batch_size
-    env_sps = _fill_buffer(model, batch)
     wall_s, cpu_s = _time_updates(model, updates, batch)
     result = {"task": task, "algo": algo, "preset": preset, "image_size": config.env.image_size,
               "batch_size": batch, "env_steps_per_s": round(env_sps, 3), "updates_per_s": round(1.0 / wall_s, 3),
@@ -96,28 +106,85 @@ def bench_one(task: str, algo: str, preset: str, updates: int, seed: int = 0, ov
     return result
 
 
-def bench_train(task: str = "PushDoorNav", presets: tuple[str, ...] = ("cpu", "paper"), updates: int = 10,
-                advance=None, subgoals: int = 1000) -> dict:
-    """The update and step rates of every algorithm and preset, then one real relmogen-r
-    ``cpu`` training run (``training_run``, see ``bench_training_run``)."""
+def bench_train(task: str = "PushDoorNav", updates: int = 10, advance=None, subgoals: int = 1000,
+                probes: bool = False) -> dict:
+    """The update and step rates of every algorithm with the ``cpu`` preset, the relmogen-d
+    update of each Q-map network layout alternated in one process (``qmap_variants``), then one
+    real ``cpu`` training run each of relmogen-r and relmogen-d (see ``bench_training_run``).
+    ``probes`` adds the ``paper`` preset (128 px), the Q-map resolutions and bfloat16, which take
+    most of an hour on a CPU without native bfloat16."""
+    presets = ("cpu", "paper") if probes else ("cpu",)
     runs = []
     for preset in presets:
         for algo in ALGOS:
             runs.append(bench_one(task, algo, preset, updates))
             if advance is not None:
                 advance()
-    qmap_resolutions = bench_qmap_resolutions(task, updates)
-    qmap_precisions = bench_qmap_precisions(task, updates)
+    result = {"task": task, "updates_timed": updates, "runs": runs,
+              "qmap_variants": bench_qmap_variants(task, updates)}
     training_run = bench_training_run(task, "cpu", subgoals)
     training_run_d = bench_training_run(task, "cpu", subgoals, algo="relmogen-d")
-    training_run_d_bf16 = bench_training_run(task, "cpu", subgoals, algo="relmogen-d", overrides=BF16)
-    return {"task": task, "updates_timed": updates, "runs": runs, "qmap_resolutions": qmap_resolutions,
-            "qmap_precisions": qmap_precisions, "training_run": training_run,
-            "training_run_relmogen_d": training_run_d, "training_run_relmogen_d_bf16": training_run_d_bf16,
-            "episodes_per_cpu_hour": training_run["episodes_per_cpu_hour"],
-            "subgoals_per_cpu_s": training_run["subgoals_per_cpu_s"],
-            "relmogen_d_episodes_per_cpu_hour": training_run_d["episodes_per_cpu_hour"],
-            "relmogen_d_bf16_episodes_per_cpu_hour": training_run_d_bf16["episodes_per_cpu_hour"]}
+    result.update({"training_run": training_run, "training_run_relmogen_d": training_run_d,
+                   "episodes_per_cpu_hour": training_run["episodes_per_cpu_hour"],
+                   "subgoals_per_cpu_s": training_run["subgoals_per_cpu_s"],
+                   "relmogen_d_episodes_per_cpu_hour": training_run_d["episodes_per_cpu_hour"]})
+    if probes:
+        training_run_d_bf16 = bench_training_run(task, "cpu", subgoals, algo="relmogen-d", overrides=BF16)
+        result.update({"qmap_resolutions": bench_qmap_resolutions(task, updates),
+                       "qmap_precisions": bench_qmap_precisions(task, updates),
+                       "training_run_relmogen_d_bf16": training_run_d_bf16,
+                       "relmogen_d_bf16_episodes_per_cpu_hour": training_run_d_bf16["episodes_per_cpu_hour"]})
+    return result
+
+
+# The cheaper Q-map network under test (issue 58): half the branch widths at high resolution, a
+# 32-channel head and a 2x2 last upsampling
+QMAP_LITE = ("algo.qmap_widths=[16,32,64,64]", "algo.qmap_head_width=32", "algo.qmap_head_kernel=2")
+QMAP_VARIANTS = {  # name: (overrides, channels-last layout)
+    "plain_layout": ((), False),  # the code before 2026-12-07: NCHW tensors
+    "channels_last": ((), True),
+    "skip_plain_layout": (("algo.qmap_skip=true",), False),
+    "skip_channels_last": (("algo.qmap_skip=true",), True),
+    "lite": (QMAP_LITE, True),
+    "skip_lite": (("algo.qmap_skip=true", *QMAP_LITE), True),
+}
+
+
+def use_plain_layout(net) -> None:
+    """Put a ``QMapNetwork`` back in the NCHW layout it had before it ran channels-last (weights
+    and inputs), for the A/B of ``bench_qmap_variants``; its Q values stay the same."""
+    from relmogen.agents.qmap_network import QMapNetwork
+
+    net.to(memory_format=th.contiguous_format)
+    net.image_tensor = lambda obs: QMapNetwork.image_tensor(net, obs).contiguous()
+    net.map_tensor = lambda obs: QMapNetwork.map_tensor(net, obs).contiguous()
+
+
+def bench_qmap_variants(task: str, updates: int, rounds: int = 3, preset: str = "cpu") -> list[dict]:
+    """relmogen-d update CPU seconds per batch of each ``QMAP_VARIANTS`` network, the variants
+    alternated ``rounds`` times in this process (the median counts), each against ``plain_layout``."""
+    models = {}
+    for name, (overrides, channels_last) in QMAP_VARIANTS.items():
+        config, env, model, _ = _model_with_replay(task, "relmogen-d", preset, overrides=overrides)
+        if not channels_last:
+            use_plain_layout(model.q_net.net)
+            use_plain_layout(model.q_net_target.net)
+        models[name] = (config, env, model)
+    seconds = {name: [] for name in models}
+    for _ in range(rounds):
+        for name, (config, _, model) in models.items():
+            seconds[name].append(_time_updates(model, updates, config.algo_params.batch_size)[1])
+    rows = []
+    for name, (config, env, model) in models.items():
+        env.close()
+        rows.append({"variant": name, "overrides": list(QMAP_VARIANTS[name][0]), "qmap_size": model.q,
+                     "parameters": sum(p.numel() for p in model.q_net.parameters()),
+                     "update_cpu_s": round(float(np.median(seconds[name])), 4)})
+    baseline = {row["variant"]: row["update_cpu_s"] for row in rows}
+    for row in rows:
+        reference = "skip_plain_layout" if row["variant"].startswith("skip") else "plain_layout"
+        row["speedup_vs_plain_layout"] = round(baseline[reference] / row["update_cpu_s"], 3)
+    return rows
 
 
 QMAP_SETTINGS = ((64, 16), (64, 32), (128, 32))  # (image px, Q): the old cpu head, the cpu preset, the paper's
@@ -190,6 +257,7 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
     cpu, wall, steps = cpu_end - cpu_start, wall_end - wall_start, steps_end - steps_start
     return {
         "task": task, "algo": algo, "preset": preset, "n_envs": config.env.n_envs, "overrides": list(overrides),
+        "torch_threads": config.run.torch_threads,
         **({"qmap_size": model.q} if algo == "relmogen-d" else {}),
         "subgoals_timed": int(steps), "episodes_timed": episodes, "cpu_s": round(cpu, 2), "wall_s": round(wall, 2),
         "subgoals_per_cpu_s": round(steps / cpu, 3),

@@ -132,6 +132,7 @@ class AlgoConfig(_Strict):
     qmap_skip: bool | None = None  # S/4 branch features into the Q-map head (U-Net style; ours, default off)
     qmap_unet: bool | None = None  # a U-Net Q-map head: branch features at every scale (ours, default off; not with qmap_skip)
     qmap_bf16: bool | None = None  # the Q-map network under bfloat16 autocast but its last layer (ours, default off)
+    qmap_head_kernel: Literal[4, 2] | None = None  # the Q-map head's last upsampling kernel: 4 (the paper's) or 2 (ours)
     demo_episodes: int = Field(0, ge=0)  # task-oracle episodes put in the replay before learning (ours; 0 = off)
     demo_keep: bool = False  # relmogen-d: the replay never overwrites the demonstrations (ours)
     demo_margin_weight: float = Field(0.0, ge=0)  # relmogen-d: DQfD's large-margin term on them (ours; 0 = off)

@@ -183,7 +183,8 @@ def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
     params = config.algo_params
     policy_kwargs = {key: value for key, value in
                      (("widths", params.qmap_widths), ("head_width", params.qmap_head_width),
-                      ("skip", params.qmap_skip), ("bf16", params.qmap_bf16), ("unet", params.qmap_unet))
+                      ("skip", params.qmap_skip), ("bf16", params.qmap_bf16), ("unet", params.qmap_unet),
+                      ("head_kernel", params.qmap_head_kernel))
                      if value is not None}
     optional = {key: getattr(params, key) for key in
                 ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",

@@ -37,7 +37,8 @@ def test_decode_encode_round_trip(model):
         assert control.encode(*control.decode(int(index))) == index
 
 
-HEADS = {"deconv": {}, "skip": {"skip": True}, "unet": {"unet": True}}
+HEADS = {"deconv": {}, "skip": {"skip": True}, "unet": {"unet": True}, "deconv-k2": {"head_kernel": 2},
+         "skip-k2": {"skip": True, "head_kernel": 2}, "unet-k2": {"unet": True, "head_kernel": 2}}
 
 
 @pytest.mark.parametrize("head", HEADS)
@@ -70,6 +71,39 @@ def test_network_settings_survive_save_and_load(tmp_path, setting):
     obs = random_batch(dqn.observation_space, 2)
     with th.no_grad():
         assert th.equal(dqn.q_net(obs), loaded.q_net(obs))
+
+
+def test_head_kernel_survives_save_and_load_and_sets_the_last_upsampling(tmp_path):
+    dqn = RelmogenDQN(env=DummyVecEnv([make_env]), buffer_size=64, learning_starts=0,
+                      policy_kwargs=dict(SMALL_NET, head_kernel=2), seed=0)
+    dqn.save(tmp_path / "model.zip")
+    loaded = RelmogenDQN.load(tmp_path / "model.zip")
+    dqn.env.close()
+    for net in (loaded.q_net.net, loaded.q_net_target.net):
+        upsamplings = [layer for layer in net.modules() if isinstance(layer, th.nn.ConvTranspose2d)]
+        assert [layer.kernel_size for layer in upsamplings] == [(4, 4)] * (len(upsamplings) - 1) + [(2, 2)]
+    obs = random_batch(dqn.observation_space, 2)
+    with th.no_grad():
+        assert th.equal(dqn.q_net(obs), loaded.q_net(obs))
+
+
+def test_an_unknown_head_kernel_is_refused(model):
+    with pytest.raises(ValueError, match="last kernel"):
+        QMapNetwork(model.observation_space, **SMALL_NET, head_kernel=3)
+
+
+def test_channels_last_layout_gives_the_q_values_of_the_plain_layout(model):
+    net = QMapNetwork(model.observation_space, **SMALL_NET, skip=True)
+    obs = random_batch(model.observation_space, 3)
+    with th.no_grad():
+        channels_last = net(obs)
+        net.to(memory_format=th.contiguous_format)
+        net.image_tensor = lambda batch: QMapNetwork.image_tensor(net, batch).contiguous()
+        net.map_tensor = lambda batch: QMapNetwork.map_tensor(net, batch).contiguous()
+        plain = net(obs)
+    assert next(p for p in QMapNetwork(model.observation_space, **SMALL_NET).parameters()
+                if p.dim() == 4).is_contiguous(memory_format=th.channels_last)
+    assert th.allclose(channels_last, plain, atol=1e-5)
 
 
 def test_channels_last_and_channels_first_observations_agree():

@@ -89,6 +89,9 @@ def test_env_bench_json_has_subgoal_figures(capsys):
     assert all(math.isfinite(v) and v > 0 for v in result["reset_ms_by_task"].values())
     assert_rate(result["subgoal_base_plan_rate"])
     assert_rate(result["subgoal_arm_plan_rate"])
+    host = result["host"]  # every bench JSON names its host
+    assert host["host_kind"] in ("avx512-amx", "avx512", "avx2", "other") and host["torch_threads"] >= 1
+    assert set(host["isa"]) == {"avx2", "avx512f", "avx512_bf16", "amx_tile", "amx_bf16"}
 
 
 def test_planner_cli_rejects_zero_problems(capsys):
@@ -155,3 +158,37 @@ def test_qmap_precision_rows_compare_bfloat16_against_float32():
     assert rows[0]["update_cost_vs_float32"] == 1.0
     assert rows[1]["update_cost_vs_float32"] == pytest.approx(rows[1]["update_cpu_s"] / rows[0]["update_cpu_s"],
                                                              rel=0.01, abs=1e-3)
+
+
+def test_qmap_variant_rows_alternate_layouts_and_compare_against_the_plain_layout(monkeypatch):
+    from relmogen.bench import train_bench
+
+    monkeypatch.setattr(train_bench, "QMAP_VARIANTS", {name: train_bench.QMAP_VARIANTS[name]
+                                                       for name in ("plain_layout", "lite")})
+    rows = train_bench.bench_qmap_variants("PointNav", updates=1, rounds=1, preset="tiny")
+    by_name = {row["variant"]: row for row in rows}
+    assert list(by_name) == ["plain_layout", "lite"]
+    assert by_name["plain_layout"]["speedup_vs_plain_layout"] == 1.0
+    assert by_name["lite"]["speedup_vs_plain_layout"] == pytest.approx(
+        by_name["plain_layout"]["update_cpu_s"] / by_name["lite"]["update_cpu_s"], rel=0.01, abs=1e-3)
+    assert by_name["plain_layout"]["parameters"] != by_name["lite"]["parameters"]
+    assert by_name["lite"]["overrides"] == list(train_bench.QMAP_LITE)
+
+
+def test_the_plain_layout_keeps_the_q_values_of_the_channels_last_network():
+    import torch as th
+
+    from relmogen.bench.train_bench import _model_with_replay, use_plain_layout
+
+    _, env, model, _ = _model_with_replay("PointNav", "relmogen-d", "tiny")
+    obs = model.replay_buffer.sample(2).observations
+    net = model.q_net.net
+    with th.no_grad():
+        channels_last = net(obs)
+        use_plain_layout(net)
+        plain = net(obs)
+    env.close()
+    assert all(p.is_contiguous() for p in net.parameters())
+    assert th.allclose(channels_last, plain, atol=1e-5)
+
+
