@@ -12,6 +12,7 @@ CNN as an image):
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,19 +79,36 @@ def build_local_map(
     grid = np.full((n, n), UNKNOWN, dtype=np.uint8)
     half = 0.5 * n * resolution
     ranges = np.minimum(np.asarray(ranges, dtype=np.float64), max_range)
+    angles = np.asarray(angles, dtype=np.float64)
+    lidar = tuple(float(v) for v in lidar_xy)
+    steps, cells = _ray_cells(angles.tobytes(), lidar, float(max_range), n, float(resolution))
+    free = (steps[None, :] < ranges[:, None]) & (cells >= 0)
+    grid.ravel()[cells[free]] = FREE
+    hits = ranges < max_range
+    hit_pts = np.asarray(lidar) + ranges[hits, None] * np.stack([np.cos(angles[hits]), np.sin(angles[hits])], axis=-1)
+    _mark(grid, hit_pts, resolution, half, OCCUPIED)
+    grid[_footprint_disc(n, float(footprint_radius), float(resolution))] = FREE
+    return LocalMap(grid=grid, resolution=resolution, robot_pose=tuple(float(v) for v in robot_pose))
+
+
+@functools.lru_cache(maxsize=16)
+def _ray_cells(angles_bytes: bytes, lidar_xy: tuple[float, float], max_range: float, n: int,
+               resolution: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sample distances along every ray (every half cell) and the flat grid cell of each
+    sample (-1 outside the window), (R, S). A robot's LiDAR never moves in its base frame, so a
+    map is these cells cut at each ray's range: computed once per LiDAR and map geometry."""
+    angles = np.frombuffer(angles_bytes, dtype=np.float64)
+    half = 0.5 * n * resolution
     # The window's corner is at most half*sqrt(2) from the robot; no need to march further.
     reach = min(max_range, half * np.sqrt(2.0) + np.hypot(*lidar_xy))
     steps = np.arange(0.0, reach, 0.5 * resolution)
     dirs = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
-    along = np.minimum(steps[None, :], ranges[:, None])
-    pts = np.asarray(lidar_xy) + along[..., None] * dirs[:, None, :]
-    free_mask = steps[None, :] < ranges[:, None]
-    _mark(grid, pts[free_mask], resolution, half, FREE)
-    hits = ranges < max_range
-    hit_pts = np.asarray(lidar_xy) + ranges[hits, None] * dirs[hits]
-    _mark(grid, hit_pts, resolution, half, OCCUPIED)
-    _mark_disc_free(grid, footprint_radius, resolution, half)
-    return LocalMap(grid=grid, resolution=resolution, robot_pose=tuple(float(v) for v in robot_pose))
+    pts = np.asarray(lidar_xy) + steps[None, :, None] * dirs[:, None, :]
+    cells = np.floor((pts + half) / resolution).astype(np.int64)
+    inside = np.all((cells >= 0) & (cells < n), axis=-1)
+    flat = np.where(inside, cells[..., 0] * n + cells[..., 1], -1)
+    steps.flags.writeable = flat.flags.writeable = False
+    return steps, flat
 
 
 def _mark(grid: np.ndarray, pts: np.ndarray, resolution: float, half: float, value: np.uint8) -> None:
@@ -101,8 +119,11 @@ def _mark(grid: np.ndarray, pts: np.ndarray, resolution: float, half: float, val
     grid[cells[:, 0], cells[:, 1]] = value
 
 
-def _mark_disc_free(grid: np.ndarray, radius: float, resolution: float, half: float) -> None:
-    n = grid.shape[0]
+@functools.lru_cache(maxsize=16)
+def _footprint_disc(n: int, radius: float, resolution: float) -> np.ndarray:
+    """(n, n) bool: the cells whose centre lies under the robot's footprint disc."""
+    half = 0.5 * n * resolution
     centres = (np.arange(n) + 0.5) * resolution - half
     inside = centres[:, None] ** 2 + centres[None, :] ** 2 <= radius**2
-    grid[inside] = FREE
+    inside.flags.writeable = False
+    return inside

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from relmogen.simulation.occupancy import FREE, OCCUPIED, UNKNOWN, build_local_map
 
@@ -39,3 +40,39 @@ def test_cell_and_world_conversions_round_trip():
     cells = m.point_to_cell(pts)
     assert np.allclose(m.cell_to_point(cells), pts, atol=0.05 + 1e-9)
     assert m.contains(np.array([2.6, 0.0])) == False  # noqa: E712
+
+
+def marched_map(ranges, angles, lidar_xy, max_range, radius, size_m, resolution):
+    """The map as a direct ray march: every half cell along each ray up to its range is free,
+    its end (if the ray hit something) occupied, the footprint free."""
+    n = int(round(size_m / resolution))
+    grid = np.full((n, n), UNKNOWN, dtype=np.uint8)
+    half = 0.5 * n * resolution
+
+    def mark(points, value):
+        cells = np.floor((np.asarray(points).reshape(-1, 2) + half) / resolution).astype(int)
+        cells = cells[np.all((cells >= 0) & (cells < n), axis=1)]
+        grid[cells[:, 0], cells[:, 1]] = value
+
+    reach = min(max_range, half * np.sqrt(2.0) + np.hypot(*lidar_xy))
+    for distance, angle in zip(np.minimum(ranges, max_range), angles):
+        direction = np.array([np.cos(angle), np.sin(angle)])
+        steps = np.arange(0.0, reach, 0.5 * resolution)
+        mark(np.asarray(lidar_xy) + steps[steps < distance, None] * direction, FREE)
+    for distance, angle in zip(ranges, angles):
+        if distance < max_range:
+            mark(np.asarray(lidar_xy) + distance * np.array([np.cos(angle), np.sin(angle)]), OCCUPIED)
+    centres = (np.arange(n) + 0.5) * resolution - half
+    grid[centres[:, None] ** 2 + centres[None, :] ** 2 <= radius**2] = FREE
+    return grid
+
+
+@pytest.mark.parametrize("resolution, lidar_xy", [(0.05, (0.2, 0.0)), (5.0 / 64, (0.12, -0.03))])
+def test_the_cached_ray_cells_give_the_map_of_a_direct_ray_march(resolution, lidar_xy):
+    rng = np.random.default_rng(0)
+    angles = np.linspace(-2.0, 2.0, 220)
+    for _ in range(3):  # the second and third scans reuse the first one's ray cells
+        ranges = rng.uniform(0.1, 8.0, angles.size)
+        ranges[rng.random(angles.size) < 0.2] = 6.0  # no hit: the whole ray is free
+        built = build_local_map(ranges, angles, lidar_xy, 6.0, (1.0, 2.0, 0.3), 0.3, 5.0, resolution)
+        assert np.array_equal(built.grid, marched_map(ranges, angles, lidar_xy, 6.0, 0.3, 5.0, resolution))
