@@ -48,15 +48,24 @@ def linear_extend_fn(resolutions: np.ndarray) -> ExtendFn:
 
     def extend(q1: Config, q2: Config) -> list[Config]:
         steps = int(np.ceil(np.linalg.norm((q2 - q1) / resolutions)))
-        return [q1 + (q2 - q1) * (k / steps) for k in range(steps)] + [np.array(q2, dtype=np.float64)]
+        # one array op for all states (the same values as q1 + (q2 - q1) * (k / steps) per k)
+        states = q1 + (q2 - q1) * (np.arange(steps) / steps)[:, None]
+        return [*states, np.array(q2, dtype=np.float64)]
 
     return extend
 
 
 def scaled_distance_fn(resolutions: np.ndarray) -> DistanceFn:
-    """Euclidean distance in units of resolution steps (the metric OMPL and Lazy PRM see)."""
-    resolutions = np.asarray(resolutions, dtype=np.float64)
-    return lambda q1, q2: float(np.linalg.norm((np.asarray(q2) - np.asarray(q1)) / resolutions))
+    """Euclidean distance in units of resolution steps (the metric OMPL and Lazy PRM see), in
+    plain Python: RRT-Connect's nearest-neighbour scan calls it for every tree node."""
+    inverse = np.atleast_1d(1.0 / np.asarray(resolutions, dtype=np.float64)).tolist()
+
+    def distance(q1: Config, q2: Config) -> float:
+        a, b = np.asarray(q1).tolist(), np.asarray(q2).tolist()
+        weights = inverse if len(inverse) == len(a) else inverse * len(a)
+        return math.sqrt(sum(((y - x) * w) ** 2 for x, y, w in zip(a, b, weights)))
+
+    return distance
 
 
 @dataclass
