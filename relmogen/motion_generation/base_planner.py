@@ -147,17 +147,25 @@ class FootprintChecker:
 # ----------------------------------------------------------------------------- extension
 
 
+# Both build all their states in one array op (the planners call them thousands of times per
+# plan); each state has the value of the scalar formula, e.g. yaw_from + delta * k / n.
 def _rotation(xy: np.ndarray, yaw_from: float, yaw_to: float, step: float) -> list[np.ndarray]:
     """States after ``yaw_from`` up to ``yaw_to`` (shortest way), excluding the first."""
     delta = float(wrap_angle(yaw_to - yaw_from))
     n = int(math.ceil(abs(delta) / step - 1e-9))
-    return [np.array([xy[0], xy[1], wrap_angle(yaw_from + delta * k / n)]) for k in range(1, n + 1)]
+    states = np.empty((n, 3))
+    states[:, 0], states[:, 1] = xy[0], xy[1]
+    states[:, 2] = wrap_angle(yaw_from + delta * np.arange(1, n + 1) / n)
+    return list(states)
 
 
 def _drive(xy_from: np.ndarray, xy_to: np.ndarray, yaw: float, step: float) -> list[np.ndarray]:
     """States after ``xy_from`` up to ``xy_to`` at constant ``yaw``, excluding the first."""
     n = int(math.ceil(np.linalg.norm(xy_to - xy_from) / step - 1e-9))
-    return [np.array([*(xy_from + (xy_to - xy_from) * k / n), yaw]) for k in range(1, n + 1)]
+    states = np.empty((n, 3))
+    states[:, :2] = xy_from + (xy_to - xy_from) * np.arange(1, n + 1)[:, None] / n
+    states[:, 2] = yaw
+    return list(states)
 
 
 def _heading(q1: np.ndarray, q2: np.ndarray) -> float | None:
