@@ -39,3 +39,15 @@ def _import_pybullet_silently() -> None:
 _import_pybullet_silently()
 
 from relmogen.envs import ENV_IDS  # noqa: E402,F401  (registers the environments)
+
+
+def load(path, checkpoint: str = "latest", device: str = "auto"):
+    """A trained policy with the environment settings of its run: ``path`` is a run directory
+    (``checkpoint``: ``latest``, ``best`` or a checkpoint folder), a checkpoint folder or an
+    exported actor's folder (``relmogen export``; e.g. ``relmogen/policies/PushDoorNav-relmogen-r``).
+    The result's ``make_env()`` is ``gym.make(env_id, **env_kwargs)``, the environment ``relmogen
+    eval`` builds for it, and ``policy(env)`` its greedy ``obs -> action`` in that environment
+    (``relmogen.experiments.loading.TrainedPolicy``)."""
+    from relmogen.experiments.loading import load_trained  # imported on use: `import relmogen` stays light
+
+    return load_trained(path, checkpoint, device)

@@ -11,7 +11,7 @@
     relmogen bench train [--task T] [--updates N] [--subgoals N] [--probes] [--json]
     relmogen bench sweep [--task T] [--preset NAME] [--episodes N] [--json]
     relmogen train --task T --algo A [--seed S] [--preset NAME|FILE.yaml] [--episodes N] [--max-hours H]
-                   [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR]
+                   [--device auto] [--out runs/] [--set section.key=value ...] [--resume RUN_DIR] [--quiet] [--json]
     relmogen sweep --tasks T... --algos A... --seeds S... [--preset NAME|FILE.yaml] [--set key=value ...]
                    [--episodes N | --cpu-hours H] --out DIR [--backend ray|serial] [--address ADDR]
                    [--cpus-per-run C] [--eval-episodes N] [--resume] [--quiet]
@@ -21,11 +21,11 @@
                   [--base-goal RULE] [--base-goal-clearance M] [--stochastic] [--skip-no-ops]
                   [--critic-select K] [--video PATH.gif|mp4] [--json]
     relmogen export RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] --out DIR
-    relmogen report RUN_DIRS... --out DIR
+    relmogen report RUN_DIRS... --out DIR [--checkpoint latest|best] [--curves-only]
     relmogen report --table1 DIR
     relmogen report --table2 DIR --out OUT
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
-    relmogen viz subgoals RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
+    relmogen viz subgoals RUN_DIR_OR_CHECKPOINT|POLICY_DIR [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
                           [--stochastic] [--robot NAME] [--out PNG]
     relmogen viz exploration RUN_DIR... [--checkpoint latest|best|PATH] [--episodes N] [--pca-episodes N]
                              [--seed S] [--deterministic] [--out-dir DIR]
@@ -118,7 +118,7 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.config import resolve_config
     from relmogen.experiments.env_workers import EnvWorkerError
-    from relmogen.experiments.train import TrainingStopped, resume, run_config_file, train
+    from relmogen.experiments.train import TrainingStopped, resume, run_config_file, stop_reason, train
 
     overrides = args.set + ([f"env.robot={args.robot}"] if args.robot else [])
     try:
@@ -148,7 +148,13 @@ def cmd_train(args: argparse.Namespace) -> int:
     except TrainingStopped as stopped:
         print(f"relmogen: {stopped}", file=sys.stderr)
         return STOPPED_EXIT_CODE
-    print(run_dir)
+    reason = stop_reason(run_dir)
+    print(f"relmogen: {reason}", file=sys.stderr)
+    if args.json:
+        done = json.loads((run_dir / "done.json").read_text())
+        print(json.dumps({"run_dir": str(run_dir), **done}, sort_keys=True))
+    else:
+        print(run_dir)  # the only line on stdout: RUN=$(relmogen train ...)
     return 0
 
 
@@ -156,7 +162,7 @@ STOPPED_EXIT_CODE = 130  # the shell's code for a process ended by SIGINT
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from relmogen.experiments.sweep import SweepSpec, evaluate_and_report, make_backend, run_sweep
+    from relmogen.experiments.sweep import SweepSpec, evaluate_and_report, failed_runs, make_backend, run_sweep
 
     if args.report is not None:
         if args.out is not None or args.resume or args.tasks or args.algos or args.seeds:
@@ -184,15 +190,54 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                          overrides=args.set, episodes=args.episodes, cpu_hours=args.cpu_hours, device=args.device)
     manifest = run_sweep(Path(args.out), spec, resume=args.resume, backend=args.backend, address=args.address,
                          cpus_per_run=args.cpus_per_run, eval_episodes=args.eval_episodes, quiet=args.quiet)
-    failed = {key: entry["error"] for key, entry in manifest["runs"].items() if entry["state"] != "done"}
-    for key, error in failed.items():
-        print(f"relmogen: error: run {key} failed: {error}", file=sys.stderr)
-    if failed:
-        print(f"relmogen: {len(failed)} of {len(manifest['runs'])} runs failed; continue with: relmogen sweep "
-              f"--resume --out {args.out}", file=sys.stderr)
+    errors = failed_runs(manifest, "run", f"relmogen sweep --resume --out {args.out}")
+    if errors:
+        print("\n".join(errors), file=sys.stderr)
         return 1
     print(Path(args.out) / "README.md")
     return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from relmogen.experiments.recipes import dry_run_text, listing_rows, load_recipe
+
+    if args.list:
+        if args.recipe or args.dry_run:
+            raise ValueError("reproduce --list takes no RECIPE and no --dry-run")
+        _print_recipe_listing(listing_rows())
+        return 0
+    if args.recipe is None:
+        raise ValueError("reproduce needs a RECIPE (relmogen reproduce --list shows them)")
+    recipe = load_recipe(args.recipe)
+    if args.dry_run:
+        print(dry_run_text(recipe, args.seeds), end="")
+        return 0
+    from relmogen.experiments.reproduce import run_reproduce
+    from relmogen.experiments.sweep import failed_runs
+
+    out = Path(args.out or Path("runs") / "reproduce" / recipe.name)
+    manifest = run_reproduce(args.recipe, out, args.seeds, resume=args.resume, backend=args.backend,
+                             address=args.address, cpus_per_run=args.cpus_per_run, quiet=args.quiet)
+    errors = failed_runs(manifest, "seed run", f"relmogen reproduce {args.recipe} --resume --out {out}")
+    if errors:
+        print("\n".join(errors), file=sys.stderr)
+        return 1
+    print(manifest["report"])
+    return 0
+
+
+def _print_recipe_listing(rows: list[dict]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="recipes (relmogen/configs/recipes)")
+    for column in ("recipe", "metric", "paper", "ours (mean / std / max)", "seeds", "stages", "episodes/seed",
+                   "CPU h/seed"):
+        table.add_column(column, no_wrap=column == "recipe")
+    for row in rows:
+        table.add_row(row["recipe"], row["metric"], f"{row['paper']:.2f}", row["ours"], str(row["seeds"]),
+                      str(row["stages"]), str(row["episodes_per_seed"]), f"{row['cpu_hours_per_seed']:.2f}")
+    Console(width=160).print(table)
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
@@ -262,10 +307,12 @@ def cmd_viz_exploration(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from relmogen.experiments.report import write_report
+    from relmogen.experiments.report import write_curves, write_report
     from relmogen.experiments.table1 import write_table1
     from relmogen.experiments.table2 import write_table2
 
+    if args.curves_only and (args.table1 is not None or args.table2 is not None):
+        raise ValueError("--curves-only redraws the curves.png of RUN_DIR... --out DIR; not with --table1/--table2")
     if args.table1 is not None:
         if args.runs or args.out is not None or args.table2 is not None:
             raise ValueError("report --table1 DIR takes neither RUN_DIRs, --table2 nor --out")
@@ -279,6 +326,9 @@ def cmd_report(args: argparse.Namespace) -> int:
         return 0
     if not args.runs or args.out is None:
         raise ValueError("report needs RUN_DIR... --out DIR, --table1 DIR, or --table2 DIR --out OUT")
+    if args.curves_only:  # the figure alone: table.md and table.json stay as written
+        print(write_curves([Path(p) for p in args.runs], Path(args.out)))
+        return 0
     result = write_report([Path(p) for p in args.runs], Path(args.out), args.checkpoint)
     print(result.pop("markdown"))
     print(json.dumps(result))
@@ -340,8 +390,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
                         help="print the package version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", help="what to do")
-    for add in (_add_tasks, _add_demo, _add_oracle, _add_train, _add_sweep, _add_eval, _add_export, _add_viz, _add_report,
-                _add_bench):
+    for add in (_add_tasks, _add_demo, _add_oracle, _add_train, _add_sweep, _add_reproduce, _add_eval, _add_export,
+                _add_viz, _add_report, _add_bench):
         add(sub)
     return parser
 
@@ -420,8 +470,41 @@ def _add_train(sub) -> None:
                             "this checkpoint folder); same algorithm and spaces; --task/--algo default to its own")
     train.add_argument("--init-replay", action="store_true",
                        help="with --init-from: start with that run's latest replay buffer too")
-    train.add_argument("--quiet", action="store_true", help="no progress bar")
+    train.add_argument("--quiet", action="store_true", help="no progress bar (progress and logs go to stderr)")
+    train.add_argument("--json", action="store_true",
+                       help="print one JSON object (run_dir, episodes, timesteps, wall and CPU seconds, stop_reason) "
+                            "instead of the run directory")
     train.set_defaults(func=cmd_train)
+
+
+def _add_backend_arguments(parser: argparse.ArgumentParser, unit: str) -> None:
+    """Where the runs go: Ray (here or on a cluster) or one after another in this process."""
+    parser.add_argument("--backend", choices=["ray", "serial"], default="ray",
+                        help=f"ray: each {unit} a Ray task (default); serial: one after another, without Ray")
+    parser.add_argument("--address", default=None, metavar="ADDR",
+                        help="an existing Ray cluster (e.g. HEAD:6379) instead of a local Ray started here")
+    parser.add_argument("--cpus-per-run", type=_positive_int, default=1,
+                        help=f"Ray CPUs reserved per {unit} (default 1)")
+
+
+def _add_reproduce(sub) -> None:
+    reproduce = sub.add_parser("reproduce", help="train, evaluate and report a recipe (a Table I cell as data) "
+                                                 "on Ray or one by one")
+    reproduce.add_argument("recipe", nargs="?", default=None, metavar="RECIPE",
+                           help="a recipe name (PointNav__relmogen-r or table1/PointNav__relmogen-r) or YAML file")
+    reproduce.add_argument("--list", action="store_true",
+                           help="list the recipes with the paper's value, ours and the CPU hours per seed")
+    reproduce.add_argument("--seeds", nargs="+", type=int, default=None, metavar="S",
+                           help="training seeds (default: the recipe's)")
+    reproduce.add_argument("--dry-run", action="store_true",
+                           help="print each stage's resolved configuration (YAML) of each seed; train nothing")
+    reproduce.add_argument("--out", default=None, metavar="DIR",
+                           help="folder of the runs, sweep.json and the report (default runs/reproduce/<Task>__<algo>)")
+    _add_backend_arguments(reproduce, "seed")
+    reproduce.add_argument("--resume", action="store_true",
+                           help="continue the reproduction in --out: finished stages are skipped, the others resume")
+    reproduce.add_argument("--quiet", action="store_true", help="no live table")
+    reproduce.set_defaults(func=cmd_reproduce)
 
 
 def _add_sweep(sub) -> None:
@@ -440,11 +523,7 @@ def _add_sweep(sub) -> None:
     sweep.add_argument("--device", default="auto", help="torch device of every run (default auto)")
     sweep.add_argument("--out", default=None, metavar="DIR",
                        help="sweep folder: sweep.json, runs/, a report per task and algorithm, README.md")
-    sweep.add_argument("--backend", choices=["ray", "serial"], default="ray",
-                       help="ray: each run a Ray task (default); serial: one after another, without Ray")
-    sweep.add_argument("--address", default=None, metavar="ADDR",
-                       help="an existing Ray cluster (e.g. HEAD:6379) instead of a local Ray started here")
-    sweep.add_argument("--cpus-per-run", type=_positive_int, default=1, help="Ray CPUs reserved per run (default 1)")
+    _add_backend_arguments(sweep, "run")
     sweep.add_argument("--eval-episodes", type=_positive_int, default=100,
                        help="episodes of each finished run's final evaluation (default 100, seed 100000, arm "
                             "collision on)")
@@ -519,7 +598,9 @@ def _add_viz(sub) -> None:
     qmap.set_defaults(func=cmd_viz_qmap)
     subgoals = viz_sub.add_parser("subgoals", help="where a ReLMoGen policy's base subgoals end and its arm subgoals "
                                                    "land, top-down and on the camera, with a JSON of the points")
-    subgoals.add_argument("run", metavar="RUN_DIR_OR_CHECKPOINT", help="a relmogen-r or relmogen-d run or checkpoint")
+    subgoals.add_argument("run", metavar="RUN_DIR_OR_CHECKPOINT|POLICY_DIR",
+                          help="a relmogen-r or relmogen-d run or checkpoint, or an exported actor's folder (relmogen "
+                               "export; e.g. relmogen/policies/PushDoorNav-relmogen-r: greedy, on its own robot)")
     subgoals.add_argument("--checkpoint", default="latest", metavar=CHECKPOINT_METAVAR,
                           help="which model of the run (default latest)")
     subgoals.add_argument("--episodes", type=_positive_int, default=10, help="evaluation episodes (default 10)")
@@ -560,6 +641,9 @@ def _add_report(sub) -> None:
     report.add_argument("--checkpoint", choices=["latest", "best"], default="latest",
                         help="the reference table evaluates each run's latest checkpoint (default) or the best one "
                              "its periodic evaluations chose (an early-stopping protocol, shown as such in Table I)")
+    report.add_argument("--curves-only", action="store_true",
+                        help="with RUN_DIR... --out DIR: redraw only DIR/curves.png; table.md and table.json stay as "
+                             "written")
     report.set_defaults(func=cmd_report)
 
 

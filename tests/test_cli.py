@@ -3,6 +3,7 @@
 import argparse
 import importlib.metadata
 import json
+import re
 import subprocess
 import sys
 
@@ -73,6 +74,8 @@ def fake_run(tmp_path):
 ERRORS = {
     "report of a missing run": (["report", "/nonexistent", "--out", "x"], "not a run directory"),
     "report without --out": (["report", "{run}"], "--out DIR"),
+    "curves only without --out": (["report", "{run}", "--curves-only"], "--out DIR"),
+    "curves only of Table I": (["report", "--table1", ".", "--curves-only"], "not with --table1"),
     "task name in the wrong case": (["train", "--task", "pointnav", "--algo", "sac", "--preset", "tiny", "--out",
                                      "runs"], "did you mean PointNav?"),
     "missing preset file": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "missing.yaml", "--out",
@@ -97,3 +100,31 @@ def test_errors_are_one_line_naming_the_fix_with_exit_code_2_and_create_nothing(
     assert done.returncode == 2, done.stderr
     assert len(lines) == 1 and lines[0].startswith("relmogen: error: ") and message in lines[0], done.stderr
     assert done.stdout == "" and sorted(tmp_path.rglob("*")) == before
+
+
+TINY_RUN = "--task PointNav --algo relmogen-r --preset tiny --episodes 2 --set run.eval_every_episodes=1000"
+CLI = f"{sys.executable} -m relmogen.cli"
+
+
+def test_the_quick_start_captures_the_run_directory_and_evaluates_it(tmp_path):
+    # the README's form, twice for the same seed: each RUN is one directory, never a glob of both
+    script = (f'for i in 1 2; do RUN=$({CLI} train {TINY_RUN} --out runs --quiet 2>>train.err); echo "$RUN"; done\n'
+              f'{CLI} eval "$RUN" --episodes 1 --seed 5 --json')
+    done = subprocess.run(["bash", "-c", script], capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr
+    first, second, metrics = done.stdout.splitlines()
+    assert first != second and all((tmp_path / run / "config.yaml").is_file() for run in (first, second))
+    assert json.loads(metrics)["episodes"] == 1
+    reasons = (tmp_path / "train.err").read_text().splitlines()
+    assert len(reasons) == 2 and all(re.fullmatch(r"relmogen: stopped by the episode budget: 2 of 2 episodes in "
+                                                  r"0:\d\d:\d\d", reason) for reason in reasons), reasons
+
+
+def test_train_json_is_the_only_stdout_and_progress_goes_to_stderr(tmp_path):
+    done = run_cli("train", *TINY_RUN.split(), "--out", tmp_path, "--json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    (line,) = done.stdout.splitlines()
+    result = json.loads(line)
+    assert result["episodes"] == 2 and (tmp_path / result["run_dir"] / "done.json").is_file()
+    assert result["stop_reason"].startswith("stopped by the episode budget: 2 of 2 episodes")
+    assert "2/2 episodes" in done.stderr and done.stderr.splitlines()[-1] == f"relmogen: {result['stop_reason']}"

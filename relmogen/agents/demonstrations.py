@@ -24,6 +24,7 @@ from collections.abc import Callable
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from rich.console import Console
 from rich.progress import Progress
 from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -54,7 +55,7 @@ def add_demonstrations(model, make_env: Callable, episodes: int, seed: int, quie
     try:
         if marks:
             model.replay_buffer.adding_demonstrations = True
-        with Progress(disable=quiet) as progress:
+        with Progress(disable=quiet, console=Console(stderr=True)) as progress:
             bar = progress.add_task("oracle demonstrations", total=episodes)
             while len(returns) < episodes:
                 actions = np.array([_policy_action(env, oracle.act(_single(obs, index)))

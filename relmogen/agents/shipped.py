@@ -9,7 +9,8 @@ The critics, optimizers and replay buffer are left out: the checkpoint of a cpu-
 about 19 MB of model and 600 MB of replay buffer, the actor alone is a small fraction of it.
 
 ``relmogen export RUN_DIR --out DIR`` writes one; ``relmogen demo`` loads the PushDoorNav one
-from ``relmogen/policies/``.
+from ``relmogen/policies/``; ``relmogen.load`` and ``relmogen eval`` load any
+(``relmogen.experiments.loading``).
 """
 
 from __future__ import annotations
@@ -51,10 +52,15 @@ def export_actor(model, config: TrainConfig, out_dir: Path, provenance: dict | N
     return out_dir
 
 
+def is_exported_policy(folder: Path) -> bool:
+    """Whether ``folder`` holds an exported actor (``export_actor``) rather than a run or checkpoint."""
+    return (Path(folder) / ACTOR_FILE).is_file() and (Path(folder) / CONFIG_FILE).is_file()
+
+
 def shipped_policy_dir(name: str) -> Path:
     folder = POLICIES_DIR / name
-    if not (folder / ACTOR_FILE).is_file():
-        available = sorted(p.name for p in POLICIES_DIR.glob("*") if (p / ACTOR_FILE).is_file())
+    if not is_exported_policy(folder):
+        available = sorted(p.name for p in POLICIES_DIR.glob("*") if is_exported_policy(p))
         raise ValueError(f"no shipped policy {name!r} in {POLICIES_DIR}; available: {', '.join(available) or 'none'}")
     return folder
 
@@ -65,27 +71,44 @@ def _is_input_scaling(key: str) -> bool:
     return "_scaling." in key
 
 
-def open_shipped(folder: Path, arm_collision: bool = True, render_mode: str | None = None,
-                 device: str = "cpu") -> tuple[RelmogenEnv, ShippedPolicy]:
-    """The environment the policy was trained for (arm collision checking on, as at
-    evaluation) and the policy, its network rebuilt from the config and the weights loaded."""
-    from relmogen.experiments.train import build_model, env_kwargs  # the network training builds
+def exported_model(folder: Path, config: TrainConfig, env: RelmogenEnv, device: str = "cpu"):
+    """The SAC-family model ``config`` builds on ``env``'s spaces with the actor of ``folder``
+    loaded (its critics untrained, a one-transition replay)."""
+    from relmogen.experiments.train import build_model  # the network training builds
 
-    folder = Path(folder)
-    config = read_config(folder / CONFIG_FILE)
-    env = RelmogenEnv(**env_kwargs(config, arm_collision), render_mode=render_mode)
     small = config.model_copy(update={"device": device, "algo_params": config.algo_params.model_copy(
         update={"buffer_size": 1, "learning_starts": 0})})
     model = build_model(small, DummyVecEnv([lambda: env]))
-    state = th.load(folder / ACTOR_FILE, map_location=device, weights_only=True)
+    state = th.load(Path(folder) / ACTOR_FILE, map_location=device, weights_only=True)
     reference = model.policy.actor.state_dict()
     missing = {key for key in set(reference) - set(state) if not _is_input_scaling(key)}  # older exports
     if missing or set(state) - set(reference):
-        env.close()
-        raise ValueError(f"{folder / ACTOR_FILE} does not match the network its config builds "
+        raise ValueError(f"{Path(folder) / ACTOR_FILE} does not match the network its config builds "
                          f"(missing {sorted(set(reference) - set(state))[:3]}, "
                          f"unexpected {sorted(set(state) - set(reference))[:3]})")
     model.policy.actor.load_state_dict({key: value.to(reference[key].dtype) for key, value in state.items()},
                                        strict=False)
-    provenance = json.loads((folder / PROVENANCE_FILE).read_text()) if (folder / PROVENANCE_FILE).is_file() else {}
-    return env, ShippedPolicy(config, lambda obs: model.predict(obs, deterministic=True)[0], provenance)
+    return model
+
+
+def read_provenance(folder: Path) -> dict:
+    """An exported actor's ``provenance.json``; {} when it has none."""
+    path = Path(folder) / PROVENANCE_FILE
+    return json.loads(path.read_text()) if path.is_file() else {}
+
+
+def open_shipped(folder: Path, arm_collision: bool = True, render_mode: str | None = None,
+                 device: str = "cpu") -> tuple[RelmogenEnv, ShippedPolicy]:
+    """The environment the policy was trained for (arm collision checking on, as at
+    evaluation) and the policy, its network rebuilt from the config and the weights loaded."""
+    from relmogen.experiments.train import env_kwargs
+
+    folder = Path(folder)
+    config = read_config(folder / CONFIG_FILE)
+    env = RelmogenEnv(**env_kwargs(config, arm_collision), render_mode=render_mode)
+    try:
+        model = exported_model(folder, config, env, device)
+    except ValueError:
+        env.close()
+        raise
+    return env, ShippedPolicy(config, lambda obs: model.predict(obs, deterministic=True)[0], read_provenance(folder))

@@ -10,15 +10,27 @@ Observation (a ``Dict`` that Stable-Baselines3's ``MultiInputPolicy`` accepts as
               (nearer than 0.35 m or farther than 3.0 m)
     scan      (220,)    float32 LiDAR ranges divided by the maximum range (1.0 = no hit)
     task_obs  (D,)      float32 task vector (55-D for navigation tasks), robot frame
+
+With ``obs_mode="state"`` (ManiSkill's name; for debugging and for users who bring their own
+perception) the sensors are replaced by one low-dimensional vector:
+    state     (4 + D + O,) float32 base pose (x, y, cos yaw, sin yaw; world frame), the task
+              vector above (goal, waypoints, proprioception), then each task object's position
+              (robot frame), relative yaw as (cos, sin) and joint positions (``Task.object_state``)
+The control's own keys (``local_map`` of ``subgoal-d``, ``last_subgoal``) are kept in both modes.
+
+``env.spec.max_episode_steps`` (after ``gymnasium.make``) is the episode length of the control
+made: 25 subgoals (5 for TabletopReachM), 750 joint steps, or ``episode_steps``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 
 from relmogen.envs.control_registry import make_control
 from relmogen.robots.robot import Robot
@@ -32,6 +44,8 @@ from relmogen.tasks import TaskContext, task_class
 CONTROL_DT = 0.1  # seconds per joint-velocity action (paper Section IV-B)
 THIRD_PERSON_SIZE = (320, 240)
 VIEW_KEYS = ("rgb", "local_map")
+OBS_MODES = ("rgbd", "state")  # rgbd: camera, LiDAR and task vector (the paper's); state: low-dimensional
+ROBOT_POSE_DIM = 4  # x, y, cos yaw, sin yaw
 
 
 def view_unchanged(before: dict, after: dict) -> bool:
@@ -44,6 +58,7 @@ def view_unchanged(before: dict, after: dict) -> bool:
 
 class RelmogenEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    _spec: EnvSpec | None = None
 
     def __init__(
         self,
@@ -55,9 +70,13 @@ class RelmogenEnv(gym.Env):
         render_mode: str | None = None,
         scene_seed: int = 0,
         episode_steps: int | None = None,
+        obs_mode: str = "rgbd",
         **control_options: Any,
     ):
         task_cls = task_class(task)
+        if obs_mode not in OBS_MODES:
+            raise ValueError(f"unknown obs_mode {obs_mode!r}; valid: {', '.join(OBS_MODES)}")
+        self.obs_mode = obs_mode
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
         if int(image_size) < 16:
@@ -92,6 +111,18 @@ class RelmogenEnv(gym.Env):
         self.frame_hook = None  # called during subgoal execution (videos of the motion)
 
     # ------------------------------------------------------------------ gymnasium API
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec ``gymnasium.make`` gave, with ``max_episode_steps`` filled in from the control
+        made: an id's registration cannot hold it, as the control is a keyword of ``make``."""
+        if self._spec is None or self._spec.max_episode_steps is not None or not hasattr(self, "control"):
+            return self._spec
+        return dataclasses.replace(self._spec, max_episode_steps=self.control.episode_steps)
+
+    @spec.setter
+    def spec(self, spec: EnvSpec | None) -> None:
+        self._spec = spec
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         self.task.reset(self.np_random)
@@ -159,17 +190,22 @@ class RelmogenEnv(gym.Env):
         frame = self.camera.capture(position, rotation)
         self.last_frame = frame
         self.last_scan, self._last_scan_pose = self.scan(), np.asarray(self.robot.base_pose(), dtype=np.float64)
-        obs = {
-            "rgb": frame.rgb,
-            "depth": frame.depth[..., None],
-            "scan": self.last_scan / np.float32(self.lidar.max_range),
-            "task_obs": self.task.task_obs(),
-        }
-        obs.update(self.control.extra_observation())
-        if not (np.isfinite(obs["task_obs"]).all() and np.isfinite(obs["scan"]).all()):
-            raise RuntimeError(f"non-finite observation in {self.task.name}: task_obs={obs['task_obs']}, "
+        scan = self.last_scan / np.float32(self.lidar.max_range)
+        task_obs = self.task.task_obs()
+        if not (np.isfinite(task_obs).all() and np.isfinite(scan).all()):
+            raise RuntimeError(f"non-finite observation in {self.task.name}: task_obs={task_obs}, "
                                f"robot pose={self.robot.base_pose()}; the physics state is broken")
+        if self.obs_mode == "state":
+            obs = {"state": self._state_vector(task_obs)}
+        else:
+            obs = {"rgb": frame.rgb, "depth": frame.depth[..., None], "scan": scan, "task_obs": task_obs}
+        obs.update(self.control.extra_observation())
         return obs
+
+    def _state_vector(self, task_obs: np.ndarray) -> np.ndarray:
+        x, y, yaw = self.robot.base_pose()
+        pose = np.array([x, y, np.cos(yaw), np.sin(yaw)], dtype=np.float32)
+        return np.concatenate([pose, task_obs, self.task.object_state()]).astype(np.float32)
 
     def observed_scan(self) -> np.ndarray:
         """The last observation's scan while the robot stands where it was taken (the paper plans
@@ -184,12 +220,16 @@ class RelmogenEnv(gym.Env):
         return self.lidar.scan(np.asarray(position), self.robot.base_pose()[2])
 
     def _observation_space(self, size: int) -> spaces.Dict:
-        obs = {
-            "rgb": spaces.Box(0, 255, (size, size, 3), np.uint8),
-            "depth": spaces.Box(0.0, self.camera.max_depth, (size, size, 1), np.float32),
-            "scan": spaces.Box(0.0, 1.0, (self.lidar.num_rays,), np.float32),
-            "task_obs": spaces.Box(-np.inf, np.inf, (self.task.task_obs_dim,), np.float32),
-        }
+        if self.obs_mode == "state":
+            dim = ROBOT_POSE_DIM + self.task.task_obs_dim + len(self.task.object_state())
+            obs = {"state": spaces.Box(-np.inf, np.inf, (dim,), np.float32)}
+        else:
+            obs = {
+                "rgb": spaces.Box(0, 255, (size, size, 3), np.uint8),
+                "depth": spaces.Box(0.0, self.camera.max_depth, (size, size, 1), np.float32),
+                "scan": spaces.Box(0.0, 1.0, (self.lidar.num_rays,), np.float32),
+                "task_obs": spaces.Box(-np.inf, np.inf, (self.task.task_obs_dim,), np.float32),
+            }
         obs.update(self.control.extra_observation_space())
         return spaces.Dict(obs)
 

@@ -17,6 +17,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 PRESET_DIR = Path(__file__).resolve().parent.parent / "configs" / "presets"
 ALGOS = ("relmogen-r", "relmogen-d", "sac", "oac", "hrl4in")
+IMAGE_ONLY_ALGOS = {"relmogen-d": "its Q maps are over the camera image's pixels",
+                    "hrl4in": "its encoder is the image encoder of SGP-R"}
 CONTROL_OF_ALGO = {"relmogen-r": "subgoal-r", "relmogen-d": "subgoal-d", "sac": "joint", "oac": "joint",
                    "hrl4in": "joint"}
 
@@ -54,6 +56,9 @@ class EnvConfig(_Strict):
     # (1.4 -> 0.3 per episode) for +1 CPU s per episode (results/pushdoornav-mg/)
     arm_rrt: tuple[int, int] = (20, 2)
     robot: str = "fetch"  # the embodiment: a folder of relmogen/robots/assets with a spec.yaml (fetch, movo)
+    # rgbd: camera, LiDAR and task vector (the paper's); state: one low-dimensional vector of robot pose,
+    # task vector and task-object poses (RelmogenEnv's obs_mode), for relmogen-r, sac and oac
+    obs_mode: Literal["rgbd", "state"] = "rgbd"
     # The paper's fine-tuning to a new scene (appendix, PushDoorNav Scene-A -> Scene-B): the last
     # round(second_scene_fraction x n_envs) training environments run in second_scene (a scene
     # name, e.g. office_B), the others in `scene`; evaluation uses `scene` (or eval --scene).
@@ -243,6 +248,13 @@ class TrainConfig(_Strict):
         if self.task not in ORACLES:
             raise ValueError(f"oracle_labels: no oracle for task {self.task!r}; oracles exist for: "
                              f"{', '.join(sorted(ORACLES))}")
+        return self
+
+    @model_validator(mode="after")
+    def _state_observations_need_a_vector_policy(self) -> TrainConfig:
+        if self.env.obs_mode == "state" and self.algo in IMAGE_ONLY_ALGOS:
+            raise ValueError(f"env.obs_mode=state: {self.algo} needs images ({IMAGE_ONLY_ALGOS[self.algo]}); "
+                             "use relmogen-r, sac or oac")
         return self
 
     @model_validator(mode="after")

@@ -23,11 +23,13 @@ The planners, arm collision checking and scene can differ from training: that is
 paper's planner-swap (Table II) and scene-transfer results are measured.
 
 A run is evaluated from its latest checkpoint, its best one (``checkpoints/best``, the best
-periodic evaluation during training) or a checkpoint folder. The result names the checkpoint
-(``checkpoint``: its folder name, ``checkpoint_episode``), the evaluation's episode seeds
-(``eval_seed`` up to ``eval_seed + episodes - 1``) and the run's ``training_seed``; its file in
-``RUN/eval/`` is named after the setting, the checkpoint and ``eval_seed``, so evaluations of
-other checkpoints or seeds sit beside it. ``video`` records the first episode
+periodic evaluation during training), a checkpoint folder or an exported actor's folder
+(``relmogen export``), loaded by ``loading.load_trained`` as ``relmogen.load`` loads it. The
+result names the checkpoint (``checkpoint``: its folder name, ``checkpoint_episode``), the
+evaluation's episode seeds (``eval_seed`` up to ``eval_seed + episodes - 1``) and the run's
+``training_seed``; its file in ``RUN/eval/`` is named after the setting, the checkpoint and
+``eval_seed``, so evaluations of other checkpoints or seeds sit beside it (an exported actor's
+results are only returned: its folder may be inside the installed package). ``video`` records the first episode
 (``relmogen.visualisation.video``).
 """
 
@@ -41,17 +43,16 @@ from typing import Iterator
 import numpy as np
 import torch as th
 
-from relmogen.agents.addons.critic_select import critic_selected
-from relmogen.agents.addons.skip_no_ops import sample_after_no_ops
 from relmogen.agents.demonstrations import OracleAgreement
-from relmogen.agents.dqn import env_policy
 from relmogen.agents.oracles import ORACLES
 from relmogen.agents.shipped import SHIPPABLE_ALGOS
 from relmogen.envs.relmogen_env import RelmogenEnv
-from relmogen.experiments.config import EnvConfig, TrainConfig, read_config
+from relmogen.experiments.config import EnvConfig, TrainConfig
+from relmogen.experiments.loading import load_checkpoint, load_policy, resolve_checkpoint  # noqa: F401 (re-exported)
+from relmogen.experiments.loading import load_trained, policy_act
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
-from relmogen.experiments.train import checkpoint_state, env_kwargs, latest_checkpoint, model_class, resolve_device
+from relmogen.experiments.train import env_kwargs
 from relmogen.visualisation.video import VIDEO_FPS, AnnotatedRecorder
 from relmogen.visualisation.views import check_animation_path, write_animation
 
@@ -69,26 +70,6 @@ def seeded_action_sampling(seed: int) -> Iterator[None]:
             yield
         finally:
             np.random.set_state(numpy_state)
-
-
-def policy_act(model, config: TrainConfig, env: RelmogenEnv, stochastic: bool = False, skip_no_ops: bool = False,
-               critic_select: int = 0, seed: int = 0):
-    """``obs -> action`` of ``model`` on ``env`` (SGP-D masked to its free base cells, see
-    ``env_policy``), with a ``reset`` to call at the start of each episode."""
-    if critic_select:
-        return critic_selected(model, critic_select, seed)
-    if config.algo == "relmogen-d":
-        return env_policy(model, env, deterministic=not stochastic, skip_no_ops=skip_no_ops)
-    if config.algo == "hrl4in":  # both levels; subgoals held across steps (agents/hrl4in.py)
-        return model.evaluation_policy(env, deterministic=not stochastic)
-    if skip_no_ops:
-        return sample_after_no_ops(model)
-
-    def act(obs):
-        return model.predict(obs, deterministic=not stochastic)[0]
-
-    act.reset = lambda: None
-    return act
 
 
 def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, base_planner: str | None = None,
@@ -166,88 +147,37 @@ def with_env(config: TrainConfig, **fields) -> TrainConfig:
     return config.model_copy(update={"env": EnvConfig.model_validate({**config.env.model_dump(), **fields})})
 
 
-CHECKPOINT_CHOICES = ("latest", "best")
-MISSING_CHECKPOINT = {
-    "latest": "has no checkpoint yet; train it for run.checkpoint_every_episodes episodes first",
-    "best": "has no best checkpoint yet (the first periodic evaluation writes it); use --checkpoint latest",
-}
-
-
-def resolve_checkpoint(path: Path, checkpoint: str = "latest") -> tuple[Path, Path]:
-    """(checkpoint folder, run directory) of ``path``: a checkpoint folder, the run's pointer file
-    ``RUN/checkpoints/best`` or ``latest``, or a run directory with ``checkpoint`` one of
-    ``CHECKPOINT_CHOICES`` or the path of a checkpoint folder (or the name of one in the run's
-    ``checkpoints/``)."""
-    from relmogen.experiments.train import CHECKPOINTS, run_config_file
-
-    path = Path(path)
-    if path.is_file() and path.name in CHECKPOINT_CHOICES and path.parent.name == CHECKPOINTS:
-        path = _run_checkpoint(path.parent.parent, path.name)  # the folder the pointer names
-    if (path / "model.zip").is_file():
-        if checkpoint != "latest":
-            raise ValueError(f"{path} is a checkpoint folder; give its run directory to choose --checkpoint "
-                             f"{checkpoint}")
-        run_config_file(path.parent.parent)
-        return path, path.parent.parent
-    run_config_file(path)
-    return _run_checkpoint(path, checkpoint), path
-
-
-def _run_checkpoint(run_dir: Path, checkpoint: str) -> Path:
-    from relmogen.experiments.train import CHECKPOINTS, best_checkpoint
-
-    if checkpoint in CHECKPOINT_CHOICES:
-        folder = (latest_checkpoint if checkpoint == "latest" else best_checkpoint)(run_dir)
-        missing = MISSING_CHECKPOINT[checkpoint]
-    else:
-        candidates = [Path(checkpoint), run_dir / CHECKPOINTS / checkpoint]
-        folder = next((c for c in candidates if (c / "model.zip").is_file()), None)
-        missing = f"has no checkpoint {checkpoint!r}; give latest, best or a folder holding a model.zip"
-    if folder is None:
-        raise ValueError(f"{run_dir} {missing}")
-    return folder
-
-
-def load_checkpoint(folder: Path, run_dir: Path, device: str = "auto"):
-    """The model in a checkpoint folder and its run's config."""
-    from relmogen.experiments.train import require_device
-
-    config = read_config(run_dir / "config.yaml")
-    th.set_num_threads(config.run.torch_threads)  # one thread per process unless the config says otherwise
-    model = model_class(config).load(Path(folder) / "model.zip", device=resolve_device(require_device(device)))
-    return model, config
-
-
-def load_policy(path: Path, device: str = "auto", checkpoint: str = "latest"):
-    """A run directory (its ``checkpoint``, see ``resolve_checkpoint``) or a checkpoint folder ->
-    (model, config, run directory)."""
-    folder, run_dir = resolve_checkpoint(path, checkpoint)
-    return (*load_checkpoint(folder, run_dir, device), run_dir)
-
-
 def evaluate_path(path: Path, episodes: int, seed: int = 0, base_planner: str | None = None,
                   arm_planner: str | None = None, arm_collision: bool = True, scene: str | None = None,
                   device: str = "auto", quiet: bool = False, save: bool = True, stochastic: bool = False,
                   skip_no_ops: bool = False, checkpoint: str = "latest", video: Path | None = None,
                   robot: str | None = None, base_goal: str | None = None,
                   base_goal_clearance: float | None = None, critic_select: int = 0) -> dict:
-    """``evaluate_model`` on a run's checkpoint (``resolve_checkpoint``), saved in ``RUN/eval/``
-    under ``evaluation_file_name``."""
+    """``evaluate_model`` on what ``load_trained`` loads from ``path`` (a run's checkpoint, see
+    ``resolve_checkpoint``, or an exported actor), saved in ``RUN/eval/`` under
+    ``evaluation_file_name`` (an exported actor has no run: its results are only returned)."""
     if video is not None:
         check_animation_path(video)
-    folder, run_dir = resolve_checkpoint(path, checkpoint)
-    model, config = load_checkpoint(folder, run_dir, device)
-    result = evaluate_model(model, config, episodes, seed, base_planner, arm_planner, arm_collision, scene, quiet,
-                            stochastic, skip_no_ops, video, robot, base_goal, base_goal_clearance,
+    trained = load_trained(path, checkpoint, device)
+    if critic_select and trained.run_dir is None:
+        raise ValueError(f"--critic-select needs the critics; {path} is an exported actor, without them")
+    result = evaluate_model(trained.model, trained.config, episodes, seed, base_planner, arm_planner, arm_collision,
+                            scene, quiet, stochastic, skip_no_ops, video, robot, base_goal, base_goal_clearance,
                             critic_select)
-    state = checkpoint_state(folder)
-    result = {**result, "checkpoint": folder.name, "checkpoint_episode": state.get("episodes")}
-    if save:
-        (run_dir / "eval").mkdir(exist_ok=True)
-        name = evaluation_file_name(result, arm_collision, trained_base_goal=config.env.base_goal,
-                                    trained_goal_clearance=config.env.base_goal_clearance)
-        (run_dir / "eval" / name).write_text(json.dumps(result, indent=1))
+    result = {**result, "checkpoint": trained.checkpoint_name, "checkpoint_episode": trained.checkpoint_episode}
+    if save and trained.run_dir is not None:
+        save_evaluation(result, trained.run_dir, trained.config, arm_collision)
     return result
+
+
+def save_evaluation(result: dict, run_dir: Path, config: TrainConfig, arm_collision: bool) -> Path:
+    """``result`` as ``RUN/eval/<evaluation_file_name>``."""
+    (run_dir / "eval").mkdir(exist_ok=True)
+    name = evaluation_file_name(result, arm_collision, trained_base_goal=config.env.base_goal,
+                                trained_goal_clearance=config.env.base_goal_clearance)
+    path = run_dir / "eval" / name
+    path.write_text(json.dumps(result, indent=1))
+    return path
 
 
 def evaluation_file_name(result: dict, arm_collision: bool, trained_base_goal: str | None = None,

@@ -17,6 +17,7 @@ import csv
 import json
 import warnings
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
@@ -31,6 +32,7 @@ from relmogen.experiments.task_catalogue import task_evaluation_keys  # noqa: E4
 
 TABLE_METRICS = ("success_rate", "spl", "closed_5", "closed_10")  # every evaluation has them, 0 if not the task's
 CURVE_SMOOTHING = 20  # episodes in the moving average of each seed's curve
+CURVES_DPI = 100
 
 
 def policy_of(evaluation: dict) -> str:
@@ -392,10 +394,28 @@ def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray) -> np.ndarray:
     return np.interp(grid, curve["episode"][known], smooth[known], left=np.nan, right=np.nan)
 
 
-PANELS = (("success", "episode", "success rate", "environment episodes"),
-          ("return", "episode", "episode return", "environment episodes"),
-          ("return", "hours", "episode return", "wall-clock hours"),
-          ("base_fraction", "episode", "base share of subgoals", "environment episodes"))
+@dataclass(frozen=True)
+class Panel:
+    """One row of ``curves.png``: an ``episodes.csv`` column against episodes or hours, with the
+    field of the periodic evaluations drawn as points over it (None: no points)."""
+
+    key: str
+    axis_key: str
+    ylabel: str
+    xlabel: str
+    evaluation_key: str | None
+    descriptive: bool = False  # not an outcome: left out where it cannot vary (PointNav's base share is 1)
+
+
+ROLLING = f"rolling mean of {CURVE_SMOOTHING} episodes"
+PANELS = (Panel("success", "episode", f"success rate of training episodes\n({ROLLING})", "training episodes",
+                "success_rate"),
+          Panel("return", "episode", f"episode return\n(training: {ROLLING})", "training episodes", "mean_return"),
+          Panel("return", "hours", f"episode return\n(training: {ROLLING})", "wall-clock hours", "mean_return"),
+          Panel("base_fraction", "episode", f"base share of subgoals\n(training: {ROLLING})", "training episodes",
+                None, descriptive=True))
+ITEMS_PANEL = Panel("closed_10", "episode", f"items closed per training episode\n(10 deg / 10 cm; {ROLLING})",
+                    "training episodes", "closed_10")
 
 
 def _mean_and_std(runs: list[dict], key: str, axis_key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -415,35 +435,93 @@ def _counts_items(runs: list[dict]) -> bool:
     return any(np.isfinite(r["curve"]["closed_10"]).any() for r in runs)
 
 
-EMPTY_PANEL_NOTE = {"base_fraction": "no subgoals logged\n(joint-velocity runs)"}
+def seeds_text(count: int) -> str:
+    return "1 seed" if count == 1 else f"mean and std of {count} seeds"
+
+
+def evaluation_label(algo: str, runs: list[dict]) -> str:
+    """Legend text of a group's periodic evaluations, with their episodes when all agree."""
+    sizes = {e.get("episodes") for run in runs for e in run["periodic"]}
+    each = f" of {sizes.pop()} episodes" if len(sizes) == 1 and None not in sizes else ""
+    return f"{algo}, periodic evaluations{each} (greedy, one point per seed)"
+
+
+def evaluation_points(runs: list[dict], panel: Panel) -> np.ndarray:
+    """(n, 2) x, y of every seed's periodic evaluations that record ``panel.evaluation_key``."""
+    scale = 3600.0 if panel.axis_key == "hours" else 1.0
+    x_field = "wall_time_s" if panel.axis_key == "hours" else "episode"
+    points = [(e[x_field] / scale, e[panel.evaluation_key]) for run in runs for e in run["periodic"]
+              if e.get(x_field) is not None and e.get(panel.evaluation_key) is not None]
+    return np.array(points, dtype=float).reshape(-1, 2)
+
+
+def logged_values(runs: list[dict], key: str) -> np.ndarray:
+    values = np.concatenate([r["curve"][key] for r in runs]) if runs else np.array([])
+    return values[np.isfinite(values)]
+
+
+def skip_note(runs: list[dict], panel: Panel) -> str | None:
+    """Why a descriptive panel is left out for these runs (None: it is drawn): nothing logged,
+    or one value throughout, which says nothing about training."""
+    if not panel.descriptive:
+        return None
+    values = logged_values(runs, panel.key)
+    if values.size == 0:
+        return f"{panel.ylabel.splitlines()[0]}: not logged\n(joint-velocity runs)"
+    if np.ptp(values) == 0:
+        return f"{panel.ylabel.splitlines()[0]}: always {values[0]:g}\n(not plotted)"
+    return None
+
+
+def task_panels(runs: list[dict]) -> list[Panel]:
+    """``PANELS`` for runs of one task, items closed in place of success for tasks that count them."""
+    return [ITEMS_PANEL if panel.key == "success" and _counts_items(runs) else panel for panel in PANELS]
+
+
+def _draw_group(ax, algo: str, runs: list[dict], panel: Panel, with_labels: bool) -> None:
+    grid, mean, std = _mean_and_std(runs, panel.key, panel.axis_key)
+    line, = ax.plot(grid, mean, label=f"{algo}, training ({seeds_text(len(runs))})" if with_labels else None,
+                    marker="o" if np.isfinite(mean).sum() == 1 else None)
+    if len(runs) > 1:
+        ax.fill_between(grid, mean - std, mean + std, alpha=0.25, color=line.get_color())
+    points = evaluation_points(runs, panel) if panel.evaluation_key else np.empty((0, 2))
+    if len(points):
+        ax.scatter(points[:, 0], points[:, 1], s=18, marker="D", facecolors="none", edgecolors=line.get_color(),
+                   linewidths=1.0, zorder=3, label=evaluation_label(algo, runs) if with_labels else None)
+
+
+def _leave_out(ax, note: str) -> None:
+    ax.set_axis_off()
+    ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes, color="grey")
 
 
 def curve_figure(groups: dict[tuple[str, str], list[dict]]):
-    """Per task: success rate and return against episodes (the paper's x-axis) and return
-    against wall-clock hours (the equal-budget comparison); mean and std over seeds. A curve
-    of a single point is drawn as a marker; a panel without any data says why."""
+    """Per task (a column): success rate (or items closed) and return of training episodes against
+    episodes (the paper's x-axis), return against wall-clock hours (the equal-budget comparison)
+    and the base share of subgoals; rolling means, mean and std over seeds, the periodic
+    evaluations as points. A row no task needs (a share constant for every task) is left out, a
+    cell of it a task does not need says why; a panel without any data says why."""
     tasks = sorted({task for task, _ in groups})
-    fig, axes = plt.subplots(len(PANELS), len(tasks), figsize=(5.5 * len(tasks), 13), squeeze=False)
+    runs_of = {task: [run for (t, _), runs in groups.items() if t == task for run in runs] for task in tasks}
+    notes = {(task, row): skip_note(runs_of[task], panel) for task in tasks for row, panel in enumerate(PANELS)}
+    rows = [row for row in range(len(PANELS)) if any(notes[(task, row)] is None for task in tasks)]
+    fig, axes = plt.subplots(len(rows), len(tasks), figsize=(5.5 * len(tasks), 3.4 * len(rows) + 0.6),
+                             squeeze=False, layout="constrained")
     for column, task in enumerate(tasks):
-        for (group_task, algo), runs in sorted(groups.items()):
-            if group_task != task:
+        panels = task_panels(runs_of[task])
+        for place, row in enumerate(rows):
+            ax, panel = axes[place, column], panels[row]
+            if notes[(task, row)] is not None:
+                _leave_out(ax, notes[(task, row)])
                 continue
-            counts_items = _counts_items(runs)
-            for row, (key, axis_key, ylabel, xlabel) in enumerate(PANELS):
-                if key == "success" and counts_items:
-                    key, ylabel = "closed_10", "items closed (10 deg / 10 cm)"
-                grid, mean, std = _mean_and_std(runs, key, axis_key)
-                ax = axes[row, column]
-                ax.plot(grid, mean, label=f"{algo} ({len(runs)} seeds)",
-                        marker="o" if np.isfinite(mean).sum() == 1 else None)
-                ax.fill_between(grid, mean - std, mean + std, alpha=0.25)
-                ax.set_xlabel(xlabel)
-                ax.set_ylabel(ylabel)
+            for (group_task, algo), runs in sorted(groups.items()):
+                if group_task == task:
+                    _draw_group(ax, algo, runs, panel, with_labels=place == 0)
+            ax.set_xlabel(panel.xlabel)
+            ax.set_ylabel(panel.ylabel)
+            _note_if_empty(ax, "no episodes logged yet")
         axes[0, column].set_title(task)
-        axes[0, column].legend()
-        for row, (key, *_) in enumerate(PANELS):
-            _note_if_empty(axes[row, column], EMPTY_PANEL_NOTE.get(key, "no episodes logged yet"))
-    fig.tight_layout()
+        axes[0, column].legend(fontsize=7)
     return fig
 
 
@@ -456,7 +534,7 @@ def plot_curves(groups: dict[tuple[str, str], list[dict]], path: Path) -> Path:
     """``curve_figure`` saved as a PNG."""
     fig = curve_figure(groups)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=CURVES_DPI)
     plt.close(fig)
     return path
 
@@ -477,3 +555,12 @@ def write_report(run_dirs: list[Path], out: Path, checkpoint: str = "latest") ->
     (out / "table.json").write_text(json.dumps(table_json(references + settings), indent=1) + "\n")
     curves = plot_curves(groups, out / "curves.png")
     return {"table": str(out / "table.md"), "json": str(out / "table.json"), "curves": str(curves), "markdown": table}
+
+
+def write_curves(run_dirs: list[Path], out: Path) -> Path:
+    """Redraws only ``out/curves.png`` from ``run_dirs`` (``relmogen report --curves-only``): a
+    report's tables stay as written, e.g. when only the figure's drawing changed."""
+    groups = collect(run_dirs)
+    if not groups:
+        raise ValueError("no run directories given")
+    return plot_curves(groups, Path(out) / "curves.png")

@@ -103,6 +103,16 @@ def new_manifest(spec: SweepSpec) -> dict:
     return {"version": MANIFEST_VERSION, "spec": asdict(spec), "runs": runs}
 
 
+def failed_runs(manifest: dict, noun: str, retry: str) -> list[str]:
+    """One error line per run of ``manifest`` that did not finish and, if any did not, one line
+    that says how to continue (``retry``); empty when every run is done."""
+    failed = {key: entry["error"] for key, entry in manifest["runs"].items() if entry["state"] != "done"}
+    lines = [f"relmogen: error: {noun} {key} failed: {error}" for key, error in failed.items()]
+    if failed:
+        lines.append(f"relmogen: {len(failed)} of {len(manifest['runs'])} {noun}s failed; continue with: {retry}")
+    return lines
+
+
 def find_run_dir(out: Path, key: str, remove_empty: bool = False) -> Path | None:
     """The run directory of ``key`` under ``out/runs`` (the newest, should there be several). With
     ``remove_empty`` (only the process about to train that run), an empty folder left by a kill at

@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 import psutil
 import torch as th
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import DummyVecEnv
@@ -84,7 +85,7 @@ def require_device(device: str) -> str:
 def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | None = None,
                arm_planner: str | None = None, scene: str | None = None) -> dict:
     kwargs = {"task": config.task, "control": config.control, "image_size": config.env.image_size,
-              "scene": scene or config.env.scene, "robot": config.env.robot}
+              "scene": scene or config.env.scene, "robot": config.env.robot, "obs_mode": config.env.obs_mode}
     if config.env.episode_steps is not None:
         kwargs["episode_steps"] = config.env.episode_steps
     if config.control != "joint":
@@ -161,9 +162,10 @@ def build_model(config: TrainConfig, env):
         return build_hrl4in(config, env, resolve_device(config.device))
     params = config.algo_params
     # fused Adam: one kernel per step instead of one per tensor (updates 72 -> 69 ms of CPU, batch 64)
-    policy_kwargs = dict(features_extractor_class=SGPREncoder, normalize_images=False, net_arch=params.net_arch,
-                         features_extractor_kwargs={"image_shift": params.image_shift},
-                         optimizer_kwargs={"fused": True})
+    policy_kwargs = dict(net_arch=params.net_arch, optimizer_kwargs={"fused": True})
+    if config.env.obs_mode == "rgbd":  # state: SB3's CombinedExtractor flattens the vector
+        policy_kwargs.update(features_extractor_class=SGPREncoder, normalize_images=False,
+                             features_extractor_kwargs={"image_shift": params.image_shift})
     common = dict(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                   batch_size=params.batch_size, tau=params.tau, gamma=params.gamma,
                   learning_starts=params.learning_starts, train_freq=params.train_freq,
@@ -283,6 +285,8 @@ def _write_folder(root: Path, name: str, pointer: str, write, state: dict, prune
     staging.mkdir(parents=True)
     write(staging)
     (staging / "state.json").write_text(json.dumps(state))
+    if (staging / "model.zip").is_file() and (root.parent / "config.yaml").is_file():
+        shutil.copy(root.parent / "config.yaml", staging)  # a model carries its settings (loading.py)
     shutil.rmtree(folder, ignore_errors=True)
     os.replace(staging, folder)
     _publish(root, folder.name, pointer)
@@ -313,6 +317,28 @@ def process_tree_cpu_seconds() -> float:
 
 
 # --------------------------------------------------------------------------- callback
+PERIODIC_EVALUATIONS = "eval_during_training.jsonl"
+
+
+def latest_periodic_evaluation(run_dir: Path) -> dict | None:
+    """The newest line of the run's periodic evaluations, or None before the first."""
+    path = Path(run_dir) / PERIODIC_EVALUATIONS
+    lines = path.read_text().splitlines() if path.is_file() else []
+    return json.loads(lines[-1]) if lines else None
+
+
+def progress_console() -> Console:
+    """Rich's console on stderr; 160 columns when stderr is a file or a pipe, where rich's 80
+    would cut the progress line's final state short."""
+    return Console(stderr=True, width=None if sys.stderr.isatty() else 160)
+
+
+def hms(seconds: float) -> str:
+    """``H:MM:SS``, as rich's elapsed-time column shows it."""
+    minutes, secs = divmod(int(round(seconds)), 60)
+    return f"{minutes // 60}:{minutes % 60:02d}:{secs:02d}"
+
+
 class StopRequest:
     """While entered (in the main thread), SIGINT and SIGTERM ask training to stop: the first
     sets ``requested``, which ``TrainingMonitor`` turns into a stop after the current environment
@@ -322,6 +348,7 @@ class StopRequest:
 
     def __init__(self) -> None:
         self.requested = False
+        self.signal_name: str | None = None
         self._previous: dict = {}
 
     def __enter__(self) -> StopRequest:
@@ -337,7 +364,7 @@ class StopRequest:
     def _handle(self, signum, frame) -> None:
         if self.requested:
             raise KeyboardInterrupt
-        self.requested = True
+        self.requested, self.signal_name = True, signal.Signals(signum).name
 
 
 class TrainingMonitor(BaseCallback):
@@ -358,10 +385,13 @@ class TrainingMonitor(BaseCallback):
             self.csv.writeheader()
         self.subgoals: dict[int, list[tuple[bool, bool]]] = {}  # env index -> (is base, plan found) per step
         self.term_sums: dict[int, dict[str, float]] = {}  # env index -> reward terms summed over the episode
-        self.progress = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.fields[stats]}"),
-                                 TimeElapsedColumn(), disable=quiet)
+        self.progress = Progress(TextColumn("{task.description}"), BarColumn(bar_width=20), MofNCompleteColumn(),
+                                 TextColumn("episodes"), TimeElapsedColumn(), TextColumn("{task.fields[remaining]}"),
+                                 TextColumn("{task.fields[stats]}"), console=progress_console(), disable=quiet)
         self.bar = None
         self.stop_request = StopRequest()
+        self.episodes_at_start = state["episodes"]
+        self.latest_evaluation = latest_periodic_evaluation(self.run_dir)
 
     @property
     def wall_time(self) -> float:
@@ -376,7 +406,7 @@ class TrainingMonitor(BaseCallback):
     def _on_training_start(self) -> None:
         self.progress.start()
         self.bar = self.progress.add_task(f"{self.config.task} {self.config.algo}", total=self.config.episodes,
-                                          completed=self.state["episodes"], stats="")
+                                          completed=self.state["episodes"], remaining="", stats=self._stats(0.0))
 
     def _on_training_end(self) -> None:
         self.progress.stop()
@@ -397,6 +427,44 @@ class TrainingMonitor(BaseCallback):
         return (self.state["episodes"] >= self.config.episodes or (hours is not None and self.wall_time >= hours * 3600)
                 or (cpu_hours is not None and self.cpu_time >= cpu_hours * 3600))
 
+    def stop_reason(self) -> str:
+        """One line naming what ended the run: a signal, or the first budget spent."""
+        episodes, budget = self.state["episodes"], self.config.episodes
+        at = f"at episode {episodes} of {budget}"
+        if self.stop_request.requested:
+            return f"stopped by {self.stop_request.signal_name} {at}"
+        hours, cpu_hours = self.config.max_hours, self.config.max_cpu_hours
+        if episodes >= budget:
+            return f"stopped by the episode budget: {episodes} of {budget} episodes in {hms(self.wall_time)}"
+        if hours is not None and self.wall_time >= hours * 3600:
+            return f"stopped by the time limit (--max-hours {hours:g}) {at}, after {hms(self.wall_time)}"
+        if cpu_hours is not None and self.cpu_time >= cpu_hours * 3600:
+            return (f"stopped by the CPU-time limit (max_cpu_hours {cpu_hours:g}) {at}, "
+                    f"after {self.cpu_time / 3600:.2f} CPU h")
+        return f"stopped {at}"
+
+    def remaining_seconds(self) -> float | None:
+        """Wall seconds left: the episodes still to run at this session's rate, or the time or
+        CPU-time limit if that comes first; None before this session's first episode."""
+        session_s = time.time() - self.session_start
+        done = self.state["episodes"] - self.episodes_at_start
+        if done <= 0 or session_s <= 0:
+            return None
+        left = [(self.config.episodes - self.state["episodes"]) * session_s / done]
+        if self.config.max_hours is not None:
+            left.append(self.config.max_hours * 3600 - self.wall_time)
+        if self.config.max_cpu_hours is not None:
+            session_cpu_s = max(self.cpu_time - self.cpu_before_session, 1e-9)
+            left.append((self.config.max_cpu_hours * 3600 - self.cpu_time) * session_s / session_cpu_s)
+        return max(min(left), 0.0)
+
+    def _stats(self, sps: float) -> str:
+        training = f"SR {np.mean(self.successes):.2f} (last {len(self.successes)})" if self.successes else "SR -"
+        evaluation = self.latest_evaluation
+        periodic = (f"eval SR {evaluation['success_rate']:.2f} (episode {evaluation['episode']})"
+                    if evaluation else "eval SR -")
+        return f"{training}  {periodic}  {sps:.1f} steps/s"
+
     def _record_episode(self, info: dict, subgoals: list[tuple[bool, bool]], term_sums: dict[str, float]) -> None:
         self.state["episodes"] += 1
         self.state["timesteps"] = self.model.num_timesteps
@@ -415,12 +483,13 @@ class TrainingMonitor(BaseCallback):
         self._log_scalars(episode, row, sps)
         for term, total in term_sums.items():  # which reward terms the policy collects (door, button, ...)
             self.writer.add_scalar(f"reward_terms/{term}", total, episode)
-        self.progress.update(self.bar, completed=episode,
-                             stats=f"SR {np.mean(self.successes):.2f}  {sps:.1f} steps/s  {self.model.num_timesteps} steps")
         if episode % self.config.run.checkpoint_every_episodes == 0:
             self.checkpoint(with_replay=episode % self.config.run.replay_every_episodes == 0)
         if episode % self.config.run.eval_every_episodes == 0:
             self.evaluate(episode)
+        remaining = self.remaining_seconds()
+        self.progress.update(self.bar, completed=episode, stats=self._stats(sps),
+                             remaining="" if remaining is None else f"~{hms(remaining)} left")
 
     def evaluate(self, episode: int) -> None:
         """Deterministic policy on a separate environment (arm collision checking on), logged to
@@ -434,8 +503,9 @@ class TrainingMonitor(BaseCallback):
         for key in ("success_rate", "spl", "closed_10", "mean_return"):
             self.writer.add_scalar(f"eval/{key}", result[key], episode)
         evaluation = {"episode": episode, "wall_time_s": round(self.wall_time, 2), **result}
-        with open(self.run_dir / "eval_during_training.jsonl", "a") as handle:
+        with open(self.run_dir / PERIODIC_EVALUATIONS, "a") as handle:
             handle.write(json.dumps(evaluation) + "\n")
+        self.latest_evaluation = evaluation
         if self.config.run.keep_evaluated:
             write_evaluated_checkpoint(self.run_dir, self.model, dict(self._bookkept_state(), evaluation=evaluation))
         best = best_evaluation(self.run_dir)
@@ -652,13 +722,13 @@ class TrainingStopped(Exception):
     """Training stopped on request (SIGINT, or SIGTERM through the CLI) after writing a checkpoint
     with the replay at ``episodes``."""
 
-    def __init__(self, run_dir: Path, episodes: int):
-        super().__init__(run_dir, episodes)
+    def __init__(self, run_dir: Path, episodes: int, reason: str | None = None):
+        super().__init__(run_dir, episodes, reason)
         self.run_dir, self.episodes = run_dir, episodes
+        self.reason = reason or f"stopped at episode {episodes}"
 
     def __str__(self) -> str:
-        return (f"stopped at episode {self.episodes}; model and replay saved; "
-                f"continue with: relmogen train --resume {self.run_dir}")
+        return f"{self.reason}; model and replay saved; continue with: relmogen train --resume {self.run_dir}"
 
 
 def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) -> Path:
@@ -671,7 +741,7 @@ def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) 
             stopped = monitor.stop_request.requested
             monitor.checkpoint(with_replay=stopped)  # a stop asked for keeps the replay too
             if stopped:
-                raise TrainingStopped(run_dir, state["episodes"])
+                raise TrainingStopped(run_dir, state["episodes"], monitor.stop_reason())
     except EnvWorkerError as error:  # a worker died or hung: keep what was learned, then report it
         monitor.progress.stop()
         monitor.checkpoint(with_replay=True)
@@ -680,5 +750,11 @@ def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) 
     finally:
         monitor.close()
         model.get_env().close()
-    (run_dir / "done.json").write_text(json.dumps(state))
+    (run_dir / "done.json").write_text(json.dumps(dict(state, stop_reason=monitor.stop_reason())))
     return run_dir
+
+
+def stop_reason(run_dir: Path) -> str | None:
+    """The line naming what ended a finished run (``done.json``), or None for runs without one."""
+    done = Path(run_dir) / "done.json"
+    return json.loads(done.read_text()).get("stop_reason") if done.is_file() else None

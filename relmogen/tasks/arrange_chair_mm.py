@@ -82,6 +82,9 @@ class ArrangeChairMM(Task):
         edge_xy, normal_yaw, _ = gap
         return np.asarray(edge_xy) - TUCKED_DEPTH * unit(normal_yaw), float(np.remainder(normal_yaw, 2 * np.pi) - np.pi)
 
+    def object_bodies(self) -> list[int]:
+        return [chair.body_id for chair in self.chairs]
+
     def reset(self, rng: np.random.Generator) -> None:
         gaps = self.ctx.scene.table.side_gaps
         self.gap_indices = sorted(rng.choice(len(gaps), self.count, replace=False).tolist())

@@ -86,6 +86,9 @@ class ArrangeKitchenMM(Task):
             cabinet.ignore_collisions_with(robot.robot_id, fingers)
 
     # ------------------------------------------------------------------ episode set-up
+    def object_bodies(self) -> list[int]:
+        return [cabinet.body for cabinet in self.cabinets]
+
     def reset(self, rng: np.random.Generator) -> None:
         self._place_cabinets(rng)
         for cabinet in self.cabinets:

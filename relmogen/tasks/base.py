@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from relmogen.simulation.bodies import body_pose_and_joints
 from relmogen.simulation.frames import to_local
 from relmogen.tasks.terms import RewardTerm
 
@@ -72,6 +73,22 @@ class Task:
 
     def task_obs(self) -> np.ndarray:
         raise NotImplementedError
+
+    def object_bodies(self) -> list[int]:
+        """The PyBullet bodies of the task's objects (door, button, boxes, cabinets, chairs, a
+        marker the robot must find) whose poses the ``state`` observation carries; none by default."""
+        return []
+
+    def object_state(self) -> np.ndarray:
+        """For each of ``object_bodies()``: its position in the robot frame, its yaw relative to
+        the robot as (cos, sin), and the positions of its movable joints (door hinge, drawer slide)."""
+        parts = [self._body_state(body) for body in self.object_bodies()]
+        return np.concatenate(parts).astype(np.float32) if parts else np.zeros(0, np.float32)
+
+    def _body_state(self, body: int) -> np.ndarray:
+        position, yaw, joints = body_pose_and_joints(self.ctx.world.client, body)
+        relative_yaw = yaw - self.ctx.robot.base_pose()[2]
+        return np.concatenate([self.to_robot_frame(position), [np.cos(relative_yaw), np.sin(relative_yaw)], joints])
 
     def is_success(self) -> bool:
         raise NotImplementedError

@@ -79,6 +79,9 @@ class ButtonDoorNav(PushDoorNav):
         self.button = WallButton(self.ctx.world.client)
         self.mechanism = ButtonDoor(self.door, self.button)
 
+    def object_bodies(self) -> list[int]:
+        return [*super().object_bodies(), self.button.body]
+
     def reset_objects(self, rng: np.random.Generator) -> None:
         wall_point, out_normal = self.sample_button_spot(rng)
         hinge_side = 1 if rng.random() < 0.5 else -1

@@ -185,6 +185,9 @@ class InteractiveObstaclesNav(NavigationTask):
         return connected(passable, points, door.point_in_front(door.regions[0], 0.7), beyond & in_room)
 
     # -------------------------------------------------------------------------- episode
+    def object_bodies(self) -> list[int]:
+        return [self.red.body_id, self.green.body_id]
+
     def reset(self, rng: np.random.Generator) -> None:
         side = -1 if rng.random() < 0.5 else 1
         options = self.layouts[side]

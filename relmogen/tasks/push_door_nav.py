@@ -75,6 +75,9 @@ class PushDoorNav(NavigationTask):
         super().load()
         self.door = HingedDoor(self.ctx.world.client, self.doorway)
 
+    def object_bodies(self) -> list[int]:
+        return [self.door.body]
+
     def reset(self, rng: np.random.Generator) -> None:
         self.reset_objects(rng)
         goal, field = self.sample_goal(rng)

@@ -58,6 +58,9 @@ class TabletopReachM(Task):
     def load(self) -> None:
         self.marker = visual_marker(self.ctx.world.client, 0.05, 0.004, self.marker_rgba)
 
+    def object_bodies(self) -> list[int]:
+        return [self.marker]
+
     def reset(self, rng: np.random.Generator) -> None:
         spots = self.ctx.scene.tabletop_spots
         x, y, yaw = spots[rng.integers(len(spots))]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from relmogen.envs.relmogen_env import RelmogenEnv
@@ -49,7 +49,8 @@ class PolicyRun:
 
         with seeded_action_sampling(seed):
             for episode in range(episodes):
-                run_episode(self.env, self.act, seed + episode, on_reset=self.act.reset, recorder=recorder)
+                run_episode(self.env, self.act, seed + episode, on_reset=getattr(self.act, "reset", None),
+                            recorder=recorder)
 
     def close(self) -> None:
         self.env.close()
@@ -70,3 +71,42 @@ def open_policy_run(path: Path, checkpoint: str = "latest", device: str = "auto"
         arm_collision = config.env.arm_collision_train
     env = RelmogenEnv(**env_kwargs(config, arm_collision=arm_collision))
     return PolicyRun(model, config, run_dir, folder, env, policy_act(model, config, env, stochastic), stochastic)
+
+
+@dataclass
+class ExportedPolicyRun(PolicyRun):
+    """An exported actor (``relmogen export``; the ones shipped in ``relmogen/policies/``) acting
+    greedily in its task: ``run_dir`` and ``checkpoint`` are its folder, ``provenance`` says which
+    run and checkpoint it came from; no model object (``open_shipped`` keeps it inside ``act``)."""
+
+    provenance: dict = field(default_factory=dict)
+
+    @property
+    def checkpoint_episode(self) -> int | None:
+        return self.provenance.get("episodes")
+
+    @property
+    def label(self) -> str:
+        return f"{super().label}, exported from {self.provenance.get('checkpoint')} of seed {self.config.seed}"
+
+    def describe(self) -> dict:
+        return {**super().describe(), "checkpoint": self.provenance.get("checkpoint"),
+                "exported_from": self.provenance.get("run")}
+
+
+def open_exported_run(folder: Path, checkpoint: str = "latest", device: str = "auto", stochastic: bool = False,
+                      robot: str | None = None) -> ExportedPolicyRun:
+    """An exported actor's folder (``shipped.is_exported_policy``) loaded by ``open_shipped``, as
+    ``relmogen demo`` does, arm collision checking on; it holds one greedy model on its own robot,
+    so another ``checkpoint``, ``stochastic`` or ``robot`` is refused."""
+    from relmogen.agents.shipped import open_shipped
+    from relmogen.experiments.train import resolve_device
+
+    given = {"--checkpoint": checkpoint != "latest", "--stochastic": stochastic, "--robot": robot is not None}
+    refused = [option for option, is_given in given.items() if is_given]
+    if refused:
+        raise ValueError(f"{folder} is an exported actor (one greedy model on its own robot): it takes no "
+                         f"{', '.join(refused)}")
+    env, policy = open_shipped(Path(folder), device=resolve_device(device))
+    return ExportedPolicyRun(None, policy.config, Path(folder), Path(folder), env, policy.act, False,
+                             policy.provenance)

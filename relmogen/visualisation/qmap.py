@@ -11,7 +11,10 @@ For a few states of greedy evaluation episodes, one PNG with two panels:
 
 The chosen action (masked greedy, as at evaluation) is marked with a star and an arrow: the
 push direction (robot frame, drawn as seen from above) for arm actions, the final heading for
-base actions. Titles give each part's best Q value, which decides between base and arm.
+base actions. Each Q map has a colour bar of its Q values and its panel title its highest
+value (the higher of the two decides between base and arm); a legend below the panels says
+what the local map's colours and the marks mean. The figure's title names the task, the
+policy, its training episodes and the step shown.
 
 Which states: ``drive="greedy"`` follows the policy itself and draws every ``stride``-th state.
 A young policy rarely reaches the button or a cabinet, so ``drive="oracle"`` lets the task's
@@ -34,6 +37,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch as th  # noqa: E402
+from matplotlib import patheffects  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
 
 from relmogen.agents.dqn import info_masks, without_arm_mask  # noqa: E402
 from relmogen.envs.relmogen_env import RelmogenEnv  # noqa: E402
@@ -41,6 +47,9 @@ from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS  # noqa: E402
 from relmogen.experiments.oracle import oracle_arm_pushes  # noqa: E402
 
 OVERLAY_ALPHA = 0.45
+Q_COLOURMAP = "jet"
+ROBOT_COLOUR = "orange"
+FIGURE_DPI = 110
 ARROW_CELLS = 2.5  # arrow length in Q-map cells
 DRIVERS = ("greedy", "oracle")
 ORACLE_EPISODES = 20  # give up when the oracle has not pushed in this many episodes
@@ -100,12 +109,13 @@ def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
     return QMapState(obs["rgb"], obs["local_map"], maps, masks, tuple(model.subgoal_parts), choice, step, heading)
 
 
-def _normalised(values: np.ndarray) -> np.ndarray:
+def _value_range(values: np.ndarray) -> tuple[float, float] | None:
+    """(lowest, highest) finite value, widened a little when they are equal; None without any."""
     finite = values[np.isfinite(values)]
     if finite.size == 0:
-        return values
+        return None
     low, high = float(finite.min()), float(finite.max())
-    return (values - low) / (high - low) if high > low else np.where(np.isfinite(values), 1.0, np.nan)
+    return (low, high) if high > low else (low - 0.5, high + 0.5)
 
 
 def _to_display(grid: np.ndarray) -> np.ndarray:
@@ -115,75 +125,118 @@ def _to_display(grid: np.ndarray) -> np.ndarray:
 
 def _arrow(axis, row: float, col: float, angle: float, length: float) -> None:
     """Arrow at a display position for a robot-frame heading (forward up, left to the left)."""
-    axis.annotate("", xy=(col - length * np.sin(angle), row - length * np.cos(angle)), xytext=(col, row),
-                  arrowprops=dict(arrowstyle="-|>", color="white", lw=2.0))
+    arrow = axis.annotate("", xy=(col - length * np.sin(angle), row - length * np.cos(angle)), xytext=(col, row),
+                          arrowprops=dict(arrowstyle="-|>", color="white", lw=2.0))
+    arrow.arrow_patch.set_path_effects([patheffects.withStroke(linewidth=3.5, foreground="black")])  # seen on white
 
 
-def _arm_panel(axis, state: QMapState) -> None:
+def _mark_choice(axis, row: float, col: float) -> None:
+    axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
+
+
+def _q_overlay(figure, axis, values: np.ndarray, size: int, label: str) -> None:
+    """``values`` (Q x Q, NaN where not allowed) over the panel, with a colour bar of Q values."""
+    value_range = _value_range(values)
+    if value_range is None:
+        return
+    image = axis.imshow(values, cmap=Q_COLOURMAP, alpha=OVERLAY_ALPHA, vmin=value_range[0], vmax=value_range[1],
+                        extent=(-0.5, size - 0.5, size - 0.5, -0.5), interpolation="nearest")
+    colour_bar = figure.colorbar(image, ax=axis, fraction=0.046, pad=0.02)
+    colour_bar.solids.set_alpha(1.0)  # the bar shows the colours, not the see-through overlay
+    colour_bar.set_label(label, fontsize=8)
+    colour_bar.ax.tick_params(labelsize=7)
+
+
+def _arm_panel(figure, axis, state: QMapState) -> None:
     size = state.rgb.shape[0]
     axis.imshow(state.rgb)
-    arm = state.arm_values()
-    extent = (-0.5, size - 0.5, size - 0.5, -0.5)
     if "arm" in state.parts:
-        axis.imshow(_normalised(arm), cmap="jet", alpha=OVERLAY_ALPHA, extent=extent, interpolation="nearest")
-        best = np.nanmax(arm) if np.isfinite(arm).any() else float("nan")
-        axis.set_title(f"arm Q (max over {PUSH_BINS} pushes, allowed cells), best {best:.2f}", fontsize=9)
+        arm = state.arm_values()
+        _q_overlay(figure, axis, arm, size, "arm Q value")
+        axis.set_title(f"Arm: value of pushing from each image cell\n(best of {PUSH_BINS} directions; "
+                       f"highest {np.nanmax(arm) if np.isfinite(arm).any() else float('nan'):.2f})", fontsize=9)
     else:
-        axis.set_title("arm subgoals not used by this task", fontsize=9)
+        axis.set_title("Arm: not used by this task", fontsize=9)
     part, bin_, i, j = state.choice
+    c = state.cell_pixels
     if part == "arm":
-        c = state.cell_pixels
         row, col = c * i + c // 2, c * j + c // 2
-        axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
+        _mark_choice(axis, row, col)
         if state.choice_heading is not None:
             _arrow(axis, row, col, state.choice_heading, ARROW_CELLS * c)
     if state.marked_cell is not None:
         i, j = state.marked_cell
-        c = state.cell_pixels
         axis.add_patch(plt.Rectangle((c * j - 0.5, c * i - 0.5), c, c, fill=False, edgecolor="cyan", lw=2.0))
     axis.set_axis_off()
 
 
-def _base_panel(axis, state: QMapState) -> None:
+def _base_panel(figure, axis, state: QMapState) -> None:
     grid = state.local_map[..., 0].astype(float)
     size, q = grid.shape[0], state.masks.shape[-1]
     axis.imshow(_to_display(grid), cmap="gray_r", vmin=0, vmax=255)
     if state.local_map.shape[-1] > 1:
         marks = np.ma.masked_equal(_to_display(state.local_map[..., 1].astype(float)), 0)
         axis.imshow(marks, cmap="Greens", vmin=0, vmax=255, alpha=0.9)
-    extent = (-0.5, size - 0.5, size - 0.5, -0.5)
     scale = size / q
     if "base" in state.parts:
         base = np.where(state.masks[0], state.q_maps[:YAW_BINS].max(axis=0), np.nan)
-        axis.imshow(_to_display(_normalised(base)), cmap="jet", alpha=OVERLAY_ALPHA, extent=extent,
-                    interpolation="nearest")
-        best = np.nanmax(base) if np.isfinite(base).any() else float("nan")
-        axis.set_title(f"base Q (max over {YAW_BINS} yaws, free cells), best {best:.2f}", fontsize=9)
+        _q_overlay(figure, axis, _to_display(base), size, "base Q value")
+        axis.set_title(f"Base: value of driving to each free cell\n(best of {YAW_BINS} headings; "
+                       f"highest {np.nanmax(base) if np.isfinite(base).any() else float('nan'):.2f})", fontsize=9)
     else:
-        axis.set_title("base subgoals not used by this task", fontsize=9)
+        axis.set_title("Base: not used by this task", fontsize=9)
     centre = size / 2 - 0.5
-    axis.plot(centre, centre, marker="o", markersize=7, color="orange", markeredgecolor="black")
+    axis.plot(centre, centre, marker="o", markersize=7, color=ROBOT_COLOUR, markeredgecolor="black")
     part, bin_, i, j = state.choice
     if part == "base":
         row, col = (q - 1 - i + 0.5) * scale - 0.5, (q - 1 - j + 0.5) * scale - 0.5
-        axis.plot(col, row, marker="*", markersize=16, color="white", markeredgecolor="black")
+        _mark_choice(axis, row, col)
         _arrow(axis, row, col, -np.pi + bin_ * 2 * np.pi / YAW_BINS, ARROW_CELLS * scale)
     axis.set_axis_off()
 
 
-def draw_q_map_state(state: QMapState, path: Path, title: str) -> Path:
-    figure, axes = plt.subplots(1, 3, figsize=(13.0, 4.8))
+def legend_handles(state: QMapState) -> list:
+    """What the marks and the local map's colours mean."""
+    handles = [Patch(facecolor="white", edgecolor="black", label="local map: free"),
+               Patch(facecolor="grey", edgecolor="black", label="local map: not seen yet"),
+               Patch(facecolor="black", edgecolor="black", label="local map: occupied"),
+               Line2D([], [], marker="o", linestyle="", color=ROBOT_COLOUR, markeredgecolor="black",
+                      label="robot (map centre, facing up)"),
+               Line2D([], [], marker="*", linestyle="", markersize=12, color="white", markeredgecolor="black",
+                      label="the policy's choice (arrow: push direction or final heading)"),
+               Patch(facecolor="none", edgecolor="lightgrey", label="no colour: a cell the policy may not choose")]
+    if state.local_map.shape[-1] > 1:
+        handles.insert(3, Patch(facecolor="tab:green", label="goal and path to it"))
+    if state.marked_cell is not None:
+        handles.append(Patch(facecolor="none", edgecolor="cyan", lw=2.0, label="cell the scripted oracle pushes"))
+    return handles
+
+
+def choice_text(state: QMapState) -> str:
+    part = state.choice[0]
+    return "push with the arm" if part == "arm" else "drive the base"
+
+
+def q_map_figure(state: QMapState, title: str):
+    """The three panels, a colour bar per Q map, and a legend of the marks below them."""
+    figure, axes = plt.subplots(1, 3, figsize=(13.0, 5.3), layout="constrained")
     axes[0].imshow(state.rgb)
-    axes[0].set_title("RGB (robot camera)", fontsize=9)
+    axes[0].set_title("Robot camera (RGB)", fontsize=9)
     axes[0].set_axis_off()
-    _arm_panel(axes[1], state)
-    _base_panel(axes[2], state)
-    part, bin_, i, j = state.choice
-    figure.suptitle(f"{title} - step {state.step}: chose {part} (bin {bin_}, cell {i},{j})", fontsize=10)
-    figure.tight_layout()
+    _arm_panel(figure, axes[1], state)
+    _base_panel(figure, axes[2], state)
+    driver = "the scripted oracle" if state.marked_cell is not None else "the policy"
+    figure.suptitle(f"{title}\nstep {state.step} of an episode driven by {driver}: the greedy policy would "
+                    f"{choice_text(state)} (the higher of the two best values wins)", fontsize=10)
+    figure.legend(handles=legend_handles(state), loc="outside lower center", ncol=4, fontsize=8, frameon=False)
+    return figure
+
+
+def draw_q_map_state(state: QMapState, path: Path, title: str) -> Path:
+    figure = q_map_figure(state, title)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=110)
+    figure.savefig(path, dpi=FIGURE_DPI)
     plt.close(figure)
     return path
 
@@ -261,17 +314,27 @@ def _write_oracle_summary(path: Path, records: list[dict]) -> None:
     path.write_text(json.dumps(summary, indent=1))
 
 
+def figure_title(config, episodes: int | None, trained_task: str) -> str:
+    """Task, policy and training episodes, e.g. "ButtonDoorNav: Q maps of relmogen-d (seed 0) after
+    2,019 training episodes"."""
+    trained = f" after {episodes:,} training episodes" if episodes is not None else ""
+    elsewhere = f" on {trained_task}" if trained_task != config.task else ""
+    return f"{config.task}: Q maps of {config.algo} (seed {config.seed}){elsewhere}{trained}"
+
+
 def q_map_figures_for_checkpoint(path: Path, out_dir: Path, task: str | None = None, states: int = 4,
                                  seed: int = 0, stride: int = 3, device: str = "auto",
                                  drive: str = "greedy") -> list[Path]:
     """``relmogen viz qmap``: load a relmogen-d run or checkpoint and draw its Q maps on ``task``
     (default: the task it was trained on), arm collision checking on as at evaluation."""
-    from relmogen.experiments.evaluate import load_policy
-    from relmogen.experiments.train import env_kwargs
+    from relmogen.experiments.evaluate import load_checkpoint, resolve_checkpoint
+    from relmogen.experiments.train import checkpoint_state, env_kwargs
 
-    model, config, run_dir = load_policy(Path(path), device)
+    folder, run_dir = resolve_checkpoint(Path(path))
+    model, config = load_checkpoint(folder, run_dir, device)
     if config.algo != "relmogen-d":
         raise ValueError(f"Q maps exist only for relmogen-d policies; {run_dir} is {config.algo!r}")
+    trained_task = config.task
     if task is not None:
         config = config.model_copy(update={"task": task})
     env = RelmogenEnv(**env_kwargs(config, arm_collision=True))
@@ -279,7 +342,7 @@ def q_map_figures_for_checkpoint(path: Path, out_dir: Path, task: str | None = N
         if min(env.observation_space["local_map"].shape) != min(model.observation_space["local_map"].shape):
             raise ValueError(f"{config.task}'s local map has a different number of channels than the "
                              f"task {run_dir.name} was trained on")
-        return q_map_figures(model, env, out_dir, states, seed, stride, title=f"{run_dir.name} on {config.task}",
-                             drive=drive)
+        title = figure_title(config, checkpoint_state(folder).get("episodes"), trained_task)
+        return q_map_figures(model, env, out_dir, states, seed, stride, title=title, drive=drive)
     finally:
         env.close()

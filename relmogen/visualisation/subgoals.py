@@ -31,8 +31,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from relmogen.agents.shipped import is_exported_policy  # noqa: E402
 from relmogen.experiments.rollout import FrameRecorder  # noqa: E402
-from relmogen.visualisation.policy_runs import PolicyRun, open_policy_run  # noqa: E402
+from relmogen.visualisation.policy_runs import PolicyRun, open_exported_run, open_policy_run  # noqa: E402
 from relmogen.visualisation.scene_map import (door_distances, draw_floor_plan, draw_goals, task_goal,  # noqa: E402
                                               zoom_to)
 from relmogen.visualisation.video import chosen_subgoal  # noqa: E402
@@ -193,10 +194,11 @@ def _arm_points_panel(axis, figure, env, log: SubgoalLog) -> None:
         axis.text(0.01, 0.01, "fill: height; edge: outcome", transform=axis.transAxes, fontsize=6, va="bottom")
 
 
-def draw_subgoals(run: PolicyRun, log: SubgoalLog, path: Path, title: str) -> Path:
+def subgoals_figure(run: PolicyRun, log: SubgoalLog, title: str):
     """The three panels; the base one alone for tasks without arm subgoals (PointNav)."""
     arm = "arm" in run.env.task.subgoal_parts or bool(log.arm)
-    figure, axes = plt.subplots(1, 3, figsize=(15.0, 5.0)) if arm else plt.subplots(1, 1, figsize=(8.0, 5.6))
+    size = (15.0, 5.8) if arm else (8.0, 5.8)
+    figure, axes = plt.subplots(1, 3 if arm else 1, figsize=size, layout="constrained")  # room for every label
     axes = np.atleast_1d(axes)
     _base_panel(axes[0], run.env, log)
     if arm:
@@ -205,9 +207,13 @@ def draw_subgoals(run: PolicyRun, log: SubgoalLog, path: Path, title: str) -> Pa
     else:
         title += f"\n({run.config.task} uses base subgoals only)"
     figure.suptitle(title, fontsize=10)
-    figure.tight_layout()
+    return figure
+
+
+def draw_subgoals(run: PolicyRun, log: SubgoalLog, path: Path, title: str) -> Path:
+    figure = subgoals_figure(run, log, title)
     path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, dpi=110)
+    figure.savefig(path, dpi=110, bbox_inches="tight")  # tall map panels can still reach the edge
     plt.close(figure)
     return path
 
@@ -215,14 +221,16 @@ def draw_subgoals(run: PolicyRun, log: SubgoalLog, path: Path, title: str) -> Pa
 def subgoal_figure(path: Path, out: Path, episodes: int = 10, seed: int = 100_000, checkpoint: str = "latest",
                    device: str = "auto", stochastic: bool = False, robot: str | None = None) -> dict:
     """``relmogen viz subgoals``: the figure at ``out`` (a .png) and its points at ``out`` with
-    suffix .json; returns what the JSON holds. ``robot`` evaluates on another embodiment than the
-    run's (e.g. movo for a Fetch run: where does it stop in front of the door?)."""
+    suffix .json; returns what the JSON holds. ``path`` is a run, a checkpoint or an exported
+    actor's folder (``relmogen/policies/PushDoorNav-relmogen-r``). ``robot`` evaluates on another
+    embodiment than the run's (e.g. movo for a Fetch run: where does it stop in front of the door?)."""
     out = Path(out)
     if out.suffix.lower() != ".png":
         raise ValueError(f"--out must name a .png file, got {out}")
     if episodes < 1:
         raise ValueError(f"episodes must be positive, got {episodes}")
-    run = open_policy_run(Path(path), checkpoint, device, stochastic, robot=robot)
+    opener = open_exported_run if is_exported_policy(path) else open_policy_run
+    run = opener(Path(path), checkpoint, device, stochastic, robot=robot)
     try:
         if run.config.algo not in SUBGOAL_ALGOS:
             raise ValueError(f"subgoal figures need a {' or '.join(SUBGOAL_ALGOS)} run; {run.run_dir} is "

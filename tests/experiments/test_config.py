@@ -123,3 +123,18 @@ def test_a_bad_preset_file_is_refused_with_a_reason(tmp_path, content, message):
         resolve_config("PointNav", "sac", preset=str(tmp_path / "bad.yaml"))
     with pytest.raises(ValueError, match="does not exist"):
         resolve_config("PointNav", "sac", preset=str(tmp_path / "missing.yaml"))
+
+
+@pytest.mark.parametrize("algo", ["relmogen-d", "hrl4in"])
+def test_state_observations_are_refused_for_the_algorithms_that_need_images(algo):
+    with pytest.raises(ValueError, match=f"env.obs_mode=state: {algo} needs images"):
+        resolve_config("PointNav", algo, preset="tiny", overrides=["env.obs_mode=state"])
+
+
+def test_state_observations_reach_the_environment_of_the_vector_policies():
+    from relmogen.experiments.train import env_kwargs
+
+    for algo in ("relmogen-r", "sac", "oac"):
+        config = resolve_config("PointNav", algo, preset="tiny", overrides=["env.obs_mode=state"])
+        assert env_kwargs(config, arm_collision=True)["obs_mode"] == "state"
+    assert env_kwargs(resolve_config("PointNav", "sac", preset="tiny"), arm_collision=True)["obs_mode"] == "rgbd"

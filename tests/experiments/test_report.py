@@ -6,11 +6,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.collections import PathCollection
 
 from relmogen.experiments.config import resolve_config, save_config
 from relmogen.cli import main
-from relmogen.experiments.report import (ROW_METRICS, _counts_items, checkpoint_evaluations, final_evaluation, read_curve,
-                                         write_report)
+from relmogen.experiments.report import (CURVE_SMOOTHING, ROW_METRICS, _counts_items, checkpoint_evaluations,
+                                         final_evaluation, read_curve, write_curves, write_report)
 from relmogen.experiments.table1 import write_table1
 
 
@@ -231,7 +232,7 @@ def test_curves_of_short_runs_leave_no_panel_empty(tmp_path):
     for axis in figure.axes:
         drawn = any(np.isfinite(line.get_ydata()).sum() >= 2 for line in axis.get_lines())
         assert drawn or [text.get_text() for text in axis.texts], axis.get_ylabel()
-    assert "joint-velocity" in figure.axes[3].texts[0].get_text()
+    assert len(figure.axes) == 3  # no base-share row: joint velocities choose no subgoals
 
 
 def test_an_evaluation_of_the_best_checkpoint_is_a_setting_of_its_own_not_the_reference(tmp_path):
@@ -300,3 +301,133 @@ def test_only_the_checkpoints_own_evaluations_most_episodes_first(tmp_path):
 
 def test_a_run_never_evaluated_has_none(tmp_path):
     assert checkpoint_evaluations(tmp_path, "episode_0000020") == []
+
+
+def write_base_shares(run, shares) -> None:
+    """Rewrite ``run``'s episodes.csv with one row per share in ``shares``."""
+    with open(run / "episodes.csv", "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["episode", "timesteps", "wall_time_s", "return", "length", "success", "base_fraction"])
+        for episode, share in enumerate(shares, start=1):
+            writer.writerow([episode, episode * 25, episode * 36.0, episode / 10, 25, float(episode > 50), share])
+
+
+def write_periodic(run, rows) -> None:
+    """``eval_during_training.jsonl`` with (episode, success_rate, mean_return) rows of 10 episodes each."""
+    (run / "eval_during_training.jsonl").write_text("".join(json.dumps(
+        {"episode": e, "wall_time_s": e * 36.0, "episodes": 10, "success_rate": sr, "mean_return": ret}) + "\n"
+        for e, sr, ret in rows))
+
+
+def legend_texts(figure) -> list[str]:
+    return [text.get_text() for axis in figure.axes if axis.get_legend() for text in axis.get_legend().get_texts()]
+
+
+def scatter_points(axis) -> list[tuple[float, float]]:
+    """The (x, y) of every point scattered on ``axis`` (not the std bands), sorted."""
+    points = [c.get_offsets() for c in axis.collections if isinstance(c, PathCollection)]
+    return sorted(tuple(p) for p in np.concatenate(points).tolist()) if points else []
+
+
+def curves_of(runs):
+    from relmogen.experiments.report import collect, curve_figure
+
+    return curve_figure(collect(runs))
+
+
+def axis_named(figure, ylabel_start: str, xlabel: str = "training episodes"):
+    return next(a for a in figure.axes if a.get_ylabel().startswith(ylabel_start) and a.get_xlabel() == xlabel)
+
+
+def test_the_legend_counts_seeds_in_the_singular_for_one_seed(tmp_path):
+    one = curves_of([fake_run(tmp_path / "one", "relmogen-r", 0, 0.9, 0.5)])
+    assert "relmogen-r, training (1 seed)" in legend_texts(one)
+    three = curves_of([fake_run(tmp_path / "three", "relmogen-r", s, 0.9, 0.5) for s in range(3)])
+    assert "relmogen-r, training (mean and std of 3 seeds)" in legend_texts(three)
+    assert not any("1 seeds" in text for text in legend_texts(one) + legend_texts(three))
+
+
+def test_the_success_panel_says_it_is_a_rolling_mean_of_training_episodes(tmp_path):
+    figure = curves_of([fake_run(tmp_path, "relmogen-r", 0, 0.9, 0.5)])
+    label = figure.axes[0].get_ylabel()
+    assert label.startswith("success rate of training episodes")
+    assert f"rolling mean of {CURVE_SMOOTHING} episodes" in label
+
+
+def test_periodic_evaluations_are_drawn_as_points_per_seed(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", s, 0.9, 0.5) for s in (0, 1)]
+    write_periodic(runs[0], [(50, 0.2, 3.0), (100, 0.6, 9.0)])
+    write_periodic(runs[1], [(50, 0.4, 5.0)])
+    figure = curves_of(runs)
+    success = axis_named(figure, "success rate")
+    assert scatter_points(success) == [(50, 0.2), (50, 0.4), (100, 0.6)]
+    by_hours = scatter_points(axis_named(figure, "episode return", "wall-clock hours"))
+    assert by_hours == [(0.5, 3.0), (0.5, 5.0), (1.0, 9.0)]  # 50 episodes x 36 s = 0.5 h
+    assert "relmogen-r, periodic evaluations of 10 episodes (greedy, one point per seed)" in legend_texts(figure)
+
+
+def test_a_run_without_periodic_evaluations_draws_no_points(tmp_path):
+    figure = curves_of([fake_run(tmp_path, "relmogen-r", 0, 0.9, 0.5)])
+    assert scatter_points(axis_named(figure, "success rate")) == []
+    assert not any("periodic" in text for text in legend_texts(figure))
+
+
+def test_a_constant_base_share_is_not_drawn(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", s, 0.9, 0.5) for s in (0, 1)]
+    for run in runs:
+        write_base_shares(run, [1.0] * 100)
+    figure = curves_of(runs)
+    assert len(figure.axes) == 3
+    assert not any(axis.get_ylabel().startswith("base share") for axis in figure.axes)
+
+
+def test_a_varying_base_share_is_drawn(tmp_path):
+    run = fake_run(tmp_path, "relmogen-r", 0, 0.9, 0.5)
+    write_base_shares(run, np.linspace(1.0, 0.5, 100))
+    figure = curves_of([run])
+    line = axis_named(figure, "base share").get_lines()[0]
+    assert np.nanmax(line.get_ydata()) == pytest.approx(1.0) and np.nanmin(line.get_ydata()) < 0.6
+
+
+def test_beside_a_task_that_needs_it_a_constant_share_says_why_it_is_left_out(tmp_path):
+    varying = fake_run(tmp_path, "relmogen-r", 0, 0.9, 0.5)
+    write_base_shares(varying, np.linspace(1.0, 0.5, 100))
+    constant = tmp_path / "PointNav__relmogen-r__0"
+    (constant / "eval").mkdir(parents=True)
+    save_config(resolve_config("PointNav", "relmogen-r", seed=0, preset="cpu"), constant / "config.yaml")
+    write_base_shares(constant, [1.0] * 100)
+    figure = curves_of([varying, constant])
+    assert [a.get_title() for a in figure.axes[:2]] == ["PointNav", "PushDoorNav"] or \
+        {a.get_title() for a in figure.axes} >= {"PointNav", "PushDoorNav"}
+    left_out = [a for a in figure.axes if not a.axison]
+    assert len(left_out) == 1 and "always 1 (not plotted)" in left_out[0].texts[0].get_text().replace("\n", " ")
+    assert sum(a.get_ylabel().startswith("base share") for a in figure.axes) == 1
+
+
+def test_curves_only_redraws_curves_png_and_leaves_the_tables_byte_identical(tmp_path, capsys):
+    import imageio.v2 as imageio
+
+    runs = [fake_run(tmp_path, "relmogen-r", s, 0.9, 0.5) for s in (0, 1)]
+    out = tmp_path / "report"
+    assert main(["report", *map(str, runs), "--out", str(out)]) == 0
+    tables = {name: (out / name).read_bytes() for name in ("table.md", "table.json")}
+    first = imageio.imread(out / "curves.png")
+    for run in runs:  # new evaluations (a full report would change its tables) and points on the curves
+        (run / "eval" / "eval_collision-on.json").write_text(json.dumps(
+            {"success_rate": 0.1, "spl": 0.1, "closed_5": 0.0, "closed_10": 0.0}))
+        write_periodic(run, [(50, 0.2, 3.0), (100, 0.6, 9.0)])
+    capsys.readouterr()
+    assert main(["report", *map(str, runs), "--out", str(out), "--curves-only"]) == 0
+    assert capsys.readouterr().out == f"{out / 'curves.png'}\n"
+    assert {name: (out / name).read_bytes() for name in tables} == tables
+    redrawn = imageio.imread(out / "curves.png")
+    expected = imageio.imread(write_report(runs, tmp_path / "full")["curves"])
+    assert not np.array_equal(redrawn, first) and np.array_equal(redrawn, expected)
+    assert (tmp_path / "full" / "table.md").read_bytes() != tables["table.md"]
+
+
+def test_curves_only_writes_nothing_else_and_needs_runs(tmp_path):
+    out = write_curves([fake_run(tmp_path, "sac", 0, 0.0, 0.0)], tmp_path / "new" / "report")
+    assert sorted(p.name for p in out.parent.iterdir()) == ["curves.png"] and out.stat().st_size > 10_000
+    with pytest.raises(ValueError, match="no run"):
+        write_curves([], tmp_path / "empty")

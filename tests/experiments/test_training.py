@@ -31,7 +31,7 @@ from relmogen.experiments.evaluate import evaluate_path, load_policy, resolve_ch
 from relmogen.experiments.report import final_evaluation
 from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, best_checkpoint, env_kwargs,
                                        evaluation_rank, latest_checkpoint, latest_replay, make_training_env,
-                                       read_resume_log, resume, train, worker_env)
+                                       read_resume_log, resume, stop_reason, train, worker_env, TrainingMonitor)
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
 from relmogen.visualisation.video import VIDEO_SIZE
 
@@ -279,7 +279,8 @@ def test_sigterm_stops_with_the_model_and_the_replay_saved_and_resume_continues(
     assert exit_code == 130, stderr
     model_state = json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
     replay_state = json.loads((latest_replay(run_dir).parent / "state.json").read_text())
-    assert f"stopped at episode {model_state['episodes']}; model and replay saved" in stderr
+    assert (f"relmogen: stopped by SIGTERM at episode {model_state['episodes']} of 1000; model and replay saved; "
+            f"continue with: relmogen train --resume {run_dir}") == stderr.strip().splitlines()[-1]
     assert replay_state == model_state and model_state["episodes"] >= 2  # the replay's only save: the stop's
     assert load_from_pkl(latest_replay(run_dir)).size() >= model_state["episodes"]
     resume(run_dir, quiet=True, episodes=model_state["episodes"] + 1)
@@ -319,7 +320,7 @@ def test_the_best_periodic_evaluation_keeps_its_model_as_checkpoints_best(preset
     state = json.loads((best / "state.json").read_text())
     assert best.name == f"best_{expected['episode']:07d}" and state["episodes"] == expected["episode"]
     assert state["evaluation"] == expected
-    assert sorted(path.name for path in best.iterdir()) == ["model.zip", "state.json"]  # the model only
+    assert sorted(path.name for path in best.iterdir()) == ["config.yaml", "model.zip", "state.json"]  # no replay
     assert [path.name for path in (run_dir / "checkpoints").glob("best_*")] == [best.name]
     # the pointer files name their checkpoint wherever a checkpoint folder is accepted
     assert resolve_checkpoint(run_dir / "checkpoints" / "best") == (best, run_dir)
@@ -509,4 +510,52 @@ def test_a_cpu_time_budget_stops_the_run_once_trainer_and_workers_spent_it(tmp_p
     run_dir = train(config, tmp_path, quiet=True)
     done = json.loads((run_dir / "done.json").read_text())
     assert 1 <= done["episodes"] < 1000 and done["cpu_time_s"] >= budget_s
+    assert done["stop_reason"].startswith(f"stopped by the CPU-time limit (max_cpu_hours {budget_s / 3600:g}) "
+                                          f"at episode {done['episodes']} of 1000")
     assert read_config(run_dir / "config.yaml").max_cpu_hours == pytest.approx(budget_s / 3600)
+
+
+def test_a_time_limit_stops_the_run_and_the_stop_reason_names_it(tmp_path):
+    config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=1000, max_hours=2 / 3600,
+                            overrides=["run.eval_every_episodes=1000"])
+    run_dir = train(config, tmp_path, quiet=True)
+    episodes = json.loads((run_dir / "done.json").read_text())["episodes"]
+    assert re.fullmatch(rf"stopped by the time limit \(--max-hours {2 / 3600:g}\) at episode {episodes} of 1000, "
+                        r"after 0:00:0[2-9]", stop_reason(run_dir)), stop_reason(run_dir)
+
+
+@pytest.fixture
+def monitor(tmp_path):
+    config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=100, max_hours=0.1)
+    (tmp_path / "eval_during_training.jsonl").write_text(
+        json.dumps({"episode": 20, "success_rate": 0.25}) + "\n" + json.dumps({"episode": 40, "success_rate": 0.5}))
+    monitor = TrainingMonitor(tmp_path, config, {"episodes": 40, "timesteps": 0, "wall_time_s": 0.0}, quiet=True)
+    yield monitor
+    monitor.close()
+
+
+def test_progress_estimates_the_time_left_from_this_session_and_the_time_limit(monitor):
+    assert monitor.remaining_seconds() is None  # no episode yet this session
+    monitor.session_start -= 100.0
+    monitor.state["episodes"] += 10  # 10 episodes in 100 s: 50 left take 500 s, the 0.1 h limit ends in 260 s
+    assert monitor.remaining_seconds() == pytest.approx(260.0, abs=1.0)
+    monitor.config = monitor.config.model_copy(update={"max_hours": None})
+    assert monitor.remaining_seconds() == pytest.approx(500.0, abs=5.0)
+
+
+def test_progress_shows_the_latest_periodic_evaluation_of_a_resumed_run(monitor):
+    assert "eval SR 0.50 (episode 40)" in monitor._stats(1.0)
+    monitor.successes = [1.0, 0.0]
+    assert monitor._stats(1.0).startswith("SR 0.50 (last 2)")
+
+
+def test_a_run_on_state_observations_learns_and_evaluates(tmp_path):
+    config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=3,
+                            overrides=["env.obs_mode=state", "run.eval_every_episodes=1000"])
+    run_dir = train(config, tmp_path, quiet=True)
+    model, _, _ = load_policy(run_dir, device="cpu")
+    assert set(model.observation_space.spaces) == {"state"}
+    result = evaluate_path(run_dir, episodes=1, quiet=True, save=False)
+    assert result["episodes"] == 1 and read_config(run_dir / "config.yaml").env.obs_mode == "state"
+    tags = EventAccumulator(str(run_dir / "tb")).Reload().Tags()["scalars"]
+    assert "losses/critic_loss" in tags  # gradient steps ran on the state vector

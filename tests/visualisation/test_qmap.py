@@ -3,6 +3,7 @@
 import json
 
 import imageio.v2 as imageio
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import torch as th
@@ -11,8 +12,10 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.agents.oracles.base import world_to_pixel
-from relmogen.envs.subgoal_controls import Q_DOWNSAMPLE, YAW_BINS
-from relmogen.visualisation.qmap import QMapState, q_map_figures, q_map_state
+from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS
+from relmogen.experiments.config import resolve_config
+from relmogen.simulation.occupancy import OCCUPIED, UNKNOWN
+from relmogen.visualisation.qmap import QMapState, figure_title, q_map_figure, q_map_figures, q_map_state
 
 SIZE = 64
 
@@ -106,3 +109,68 @@ def test_unknown_driver_is_refused(model_and_env, tmp_path):
     model, env = model_and_env
     with pytest.raises(ValueError, match="unknown drive"):
         q_map_figures(model, env, tmp_path, drive="teleop")
+
+
+def synthetic_state(map_channels: int = 2, choice=("arm", 3, 1, 2), marked_cell=None) -> QMapState:
+    """A 4 x 4 Q map over a 16-pixel image: arm values 0..15 on allowed cells, base values 100 + 0..15."""
+    q = np.zeros((YAW_BINS + PUSH_BINS, 4, 4))
+    q[YAW_BINS:] = np.arange(16.0).reshape(4, 4)
+    q[:YAW_BINS] = 100.0 + np.arange(16.0).reshape(4, 4)
+    masks = np.ones((2, 4, 4), dtype=bool)
+    masks[1, 3, 3] = False  # the arm's highest cell (15) is masked: the colour bar must stop at 14
+    local_map = np.zeros((16, 16, map_channels), np.uint8)
+    local_map[:4, :, 0] = OCCUPIED
+    local_map[4:8, :, 0] = UNKNOWN
+    return QMapState(np.full((16, 16, 3), 90, np.uint8), local_map, q, masks, ("base", "arm"), choice, step=5,
+                     choice_heading=0.3 if choice[0] == "arm" else None, marked_cell=marked_cell)
+
+
+def colour_bars(figure) -> dict[str, tuple[float, float]]:
+    """Label -> value limits of each colour bar axis of ``figure``."""
+    return {axis.get_ylabel(): axis.get_ylim() for axis in figure.axes if axis.get_label() == "<colorbar>"}
+
+
+def test_each_q_map_has_a_colour_bar_of_its_allowed_q_values():
+    figure = q_map_figure(synthetic_state(), "ButtonDoorNav: Q maps of relmogen-d (seed 0) after 10 training episodes")
+    bars = colour_bars(figure)
+    assert set(bars) == {"arm Q value", "base Q value"}
+    assert bars["arm Q value"] == pytest.approx((0.0, 14.0))
+    assert bars["base Q value"] == pytest.approx((100.0, 115.0))
+    plt.close(figure)
+
+
+def test_the_legend_names_the_map_colours_the_robot_and_the_choice():
+    figure = q_map_figure(synthetic_state(), "t")
+    labels = [text.get_text() for text in figure.legends[0].get_texts()]
+    for expected in ("local map: free", "local map: not seen yet", "local map: occupied", "goal and path to it",
+                     "robot (map centre, facing up)"):
+        assert expected in labels
+    assert any(label.startswith("the policy's choice") for label in labels)
+    assert not any("oracle" in label for label in labels)  # no oracle cell outlined, none explained
+    plt.close(figure)
+
+
+def test_the_legend_explains_only_what_is_drawn():
+    figure = q_map_figure(synthetic_state(map_channels=1, marked_cell=(1, 1)), "t")
+    labels = [text.get_text() for text in figure.legends[0].get_texts()]
+    assert "goal and path to it" not in labels  # no goal channel on this map
+    assert "cell the scripted oracle pushes" in labels
+    assert "driven by the scripted oracle" in figure.get_suptitle()
+    plt.close(figure)
+
+
+def test_the_title_says_task_training_and_choice_in_words_not_bins_and_cells():
+    figure = q_map_figure(synthetic_state(choice=("base", 2, 0, 3)), "PointNav: Q maps of relmogen-d (seed 1)")
+    title = figure.get_suptitle()
+    assert title.startswith("PointNav: Q maps of relmogen-d (seed 1)\nstep 5 of an episode driven by the policy")
+    assert "drive the base" in title
+    assert "bin" not in title and "cell" not in title
+    plt.close(figure)
+
+
+def test_the_figure_title_names_task_seed_and_training_episodes():
+    config = resolve_config("ButtonDoorNav", "relmogen-d", seed=2, preset="tiny")
+    assert figure_title(config, 2019, "ButtonDoorNav") == \
+        "ButtonDoorNav: Q maps of relmogen-d (seed 2) after 2,019 training episodes"
+    other = config.model_copy(update={"task": "PushDoorNav"})
+    assert figure_title(other, None, "ButtonDoorNav") == "PushDoorNav: Q maps of relmogen-d (seed 2) on ButtonDoorNav"
