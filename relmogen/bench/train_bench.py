@@ -124,10 +124,13 @@ def bench_train(task: str = "PushDoorNav", updates: int = 10, advance=None, subg
               "qmap_variants": bench_qmap_variants(task, updates)}
     training_run = bench_training_run(task, "cpu", subgoals)
     training_run_d = bench_training_run(task, "cpu", subgoals, algo="relmogen-d")
+    training_run_d_lite = bench_training_run(task, "cpu", subgoals, algo="relmogen-d", overrides=QMAP_LITE)
     result.update({"training_run": training_run, "training_run_relmogen_d": training_run_d,
+                   "training_run_relmogen_d_lite": training_run_d_lite,
                    "episodes_per_cpu_hour": training_run["episodes_per_cpu_hour"],
                    "subgoals_per_cpu_s": training_run["subgoals_per_cpu_s"],
-                   "relmogen_d_episodes_per_cpu_hour": training_run_d["episodes_per_cpu_hour"]})
+                   "relmogen_d_episodes_per_cpu_hour": training_run_d["episodes_per_cpu_hour"],
+                   "relmogen_d_lite_episodes_per_cpu_hour": training_run_d_lite["episodes_per_cpu_hour"]})
     if probes:
         training_run_d_bf16 = bench_training_run(task, "cpu", subgoals, algo="relmogen-d", overrides=BF16)
         result.update({"qmap_resolutions": bench_qmap_resolutions(task, updates),
