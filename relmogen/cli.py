@@ -16,7 +16,7 @@
                    [--episodes N | --cpu-hours H] --out DIR [--backend ray|serial] [--address ADDR]
                    [--cpus-per-run C] [--eval-episodes N] [--resume] [--quiet]
     relmogen sweep --report DIR [--eval-episodes N] [--backend ray|serial]
-    relmogen eval RUN_DIR_OR_CHECKPOINT [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
+    relmogen eval RUN_DIR_OR_CHECKPOINT_OR_POLICY [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
                   [--base-planner X] [--arm-planner Y] [--arm-collision on|off] [--scene A|B] [--robot R]
                   [--base-goal RULE] [--base-goal-clearance M] [--stochastic] [--skip-no-ops]
                   [--critic-select K] [--video PATH.gif|mp4] [--json]
@@ -118,7 +118,8 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.config import resolve_config
     from relmogen.experiments.env_workers import EnvWorkerError
-    from relmogen.experiments.train import TrainingStopped, resume, run_config_file, stop_reason, train
+    from relmogen.experiments.train import (TrainingStopped, resume, resume_budget_note, run_config_file, stop_reason,
+                                           train)
 
     overrides = args.set + ([f"env.robot={args.robot}"] if args.robot else [])
     try:
@@ -126,8 +127,11 @@ def cmd_train(args: argparse.Namespace) -> int:
             if args.init_from or args.init_replay:
                 raise ValueError("--init-from / --init-replay start a new run; --resume continues one: give one of them")
             run_config_file(Path(args.resume))
+            note = resume_budget_note(Path(args.resume), args.episodes, args.max_hours, overrides)
             run_dir = resume(Path(args.resume), quiet=args.quiet, episodes=args.episodes, max_hours=args.max_hours,
                              overrides=overrides)
+            if note is not None:  # nothing trained: which budget is spent and how to raise it, not the old stop line
+                return _print_run(run_dir, args.json, note)
         else:
             task, algo = args.task, args.algo
             if args.init_from and not (task and algo):  # the source run's, unless given
@@ -148,13 +152,18 @@ def cmd_train(args: argparse.Namespace) -> int:
     except TrainingStopped as stopped:
         print(f"relmogen: {stopped}", file=sys.stderr)
         return STOPPED_EXIT_CODE
-    reason = stop_reason(run_dir)
-    print(f"relmogen: {reason}", file=sys.stderr)
-    if args.json:
+    return _print_run(run_dir, args.json, stop_reason(run_dir))
+
+
+def _print_run(run_dir: Path, as_json: bool, line: str) -> int:
+    """The end of ``relmogen train``: ``line`` on stderr; on stdout only the run directory (or, with
+    ``--json``, one object of it and ``done.json``), so ``RUN=$(relmogen train ...)`` is one directory."""
+    print(f"relmogen: {line}", file=sys.stderr)
+    if as_json:
         done = json.loads((run_dir / "done.json").read_text())
         print(json.dumps({"run_dir": str(run_dir), **done}, sort_keys=True))
     else:
-        print(run_dir)  # the only line on stdout: RUN=$(relmogen train ...)
+        print(run_dir)
     return 0
 
 
@@ -254,7 +263,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from relmogen.agents.shipped import export_actor
+    from relmogen.experiments.shipped import export_actor
     from relmogen.experiments.evaluate import load_checkpoint, resolve_checkpoint
     from relmogen.experiments.report import checkpoint_evaluations
 
@@ -537,7 +546,9 @@ def _add_sweep(sub) -> None:
 
 def _add_eval(sub) -> None:
     evaluate = sub.add_parser("eval", help="evaluate a trained policy")
-    evaluate.add_argument("path", metavar="RUN_DIR_OR_CHECKPOINT", help="a run directory or a checkpoint folder")
+    evaluate.add_argument("path", metavar="RUN_DIR_OR_CHECKPOINT_OR_POLICY",
+                          help="a run directory, a checkpoint folder or an exported policy folder "
+                               "(e.g. relmogen/policies/PushDoorNav-relmogen-r)")
     evaluate.add_argument("--checkpoint", default="latest", metavar=CHECKPOINT_METAVAR,
                           help="which model of the run: its latest checkpoint (default), the best periodic "
                                "evaluation during training, or a checkpoint folder")

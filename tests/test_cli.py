@@ -86,16 +86,38 @@ ERRORS = {
     "eval of a missing run": (["eval", "nowhere"], "not a run directory"),
     "eval of a run without a best checkpoint": (["eval", "{run}", "--checkpoint", "best"], "no best checkpoint"),
     "eval to a video format it cannot write": (["eval", "{run}", "--video", "out.avi"], ".gif or .mp4"),
+    "misspelt algorithm block in a preset": (["train", "--task", "PointNav", "--algo", "relmogen-r", "--preset",
+                                              "{typo_preset}", "--out", "runs"],
+                                             "unknown algorithm block 'relmogen_r' under algos; did you mean relmogen-r?"),
+    "misspelt algo key in --set": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny", "--out", "runs",
+                                    "--set", "algo.batchsize=32"], "did you mean algo.batch_size?"),
+    "misspelt env key in --set": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny", "--out", "runs",
+                                   "--set", "env.imagesize=64"], "did you mean env.image_size?"),
+    "misspelt run key in --set": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny", "--out", "runs",
+                                   "--set", "run.evl_every=1"], "did you mean run.eval_every_episodes?"),
+    "misspelt key on resume": (["train", "--resume", "{run}", "--set", "algo.batchsize=32"],
+                               "did you mean algo.batch_size?"),
+    "invalid value": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny", "--out", "runs",
+                       "--set", "algo.gamma=2"], "invalid configuration: algo.gamma: Input should be less than"),
 }
 
 
+@pytest.fixture
+def typo_preset(tmp_path):
+    """A preset file whose relmogen-r block is misspelt ``relmogen_r``."""
+    path = tmp_path / "typo.yaml"
+    path.write_text("env:\n  image_size: 64\nalgos:\n  relmogen_r:\n    batch_size: 32\n")
+    return path
+
+
 @pytest.mark.parametrize("case", list(ERRORS))
-def test_errors_are_one_line_naming_the_fix_with_exit_code_2_and_create_nothing(case, tmp_path, fake_run):
+def test_errors_are_one_line_naming_the_fix_with_exit_code_2_and_create_nothing(case, tmp_path, fake_run,
+                                                                                 typo_preset):
     args, message = ERRORS[case]
     if case == "CUDA without CUDA" and th.cuda.is_available():
         pytest.skip("this machine has CUDA")
     before = sorted(tmp_path.rglob("*"))
-    done = run_cli(*(arg.format(run=fake_run) for arg in args), cwd=tmp_path)
+    done = run_cli(*(arg.format(run=fake_run, typo_preset=typo_preset) for arg in args), cwd=tmp_path)
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 2, done.stderr
     assert len(lines) == 1 and lines[0].startswith("relmogen: error: ") and message in lines[0], done.stderr

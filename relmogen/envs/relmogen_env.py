@@ -180,7 +180,7 @@ class RelmogenEnv(gym.Env):
         return robot_collisions(self.world.client, self.robot.robot_id, **self._collision_args)
 
     def third_person_image(self) -> np.ndarray:
-        from relmogen.visualisation.views import third_person_view
+        from relmogen.simulation.views import third_person_view
 
         return third_person_view(self.world.client, self.robot.base_pose(), *THIRD_PERSON_SIZE)
 

@@ -39,10 +39,20 @@ that executed nothing: no plan, or a base plan stopped before its first waypoint
 leaves the observation unchanged, so a deterministic policy that chose one repeats it; the
 cost teaches the critic that it loses the step.
 
-``subgoal_feedback`` (``subgoal-r`` only; ours, off by default) adds the observation
-``last_subgoal`` (9,) float32: the previous action (clipped to [-1, 1]; zeros after a reset)
-and 1.0 if it executed nothing (``executed_nothing``), else 0.0. A no-op then changes the
-observation, so the policy can choose differently after one instead of repeating it.
+``subgoal_feedback`` (ours, off by default) shows the policy its previous subgoal and whether
+it executed nothing (``executed_nothing``). A no-op then changes the observation, so the policy
+can choose differently after one instead of repeating it.
+    ``subgoal-r``: the observation ``last_subgoal`` (9,) float32, the previous action (clipped
+    to [-1, 1]; zeros after a reset) and 1.0 if it executed nothing, else 0.0.
+    ``subgoal-d``: two more ``local_map`` channels after the sensed ones, each the S x S frame
+    of one Q map: the previous base subgoal's cell (i, j) in the base maps' local-map frame, and
+    the previous arm subgoal's cell (i, j) in the arm maps' camera-image frame, drawn as its
+    c x c pixel square, 255 if it executed something and 128 if it executed nothing (no plan, a
+    base plan stopped before its first waypoint, or a part the task does not use). Only the
+    previous subgoal is drawn (the other part's channel is zero; both are zero after a reset);
+    the cell is where the action chose it, in the frame of the observation it was chosen in.
+    Its yaw or push bin is not drawn. The Q-map network's map branch takes every ``local_map``
+    channel, so the feedback reaches each cell's Q values without any other change.
 
 ``arm_rrt`` = (iterations, restarts) of the arm's RRT-Connect; the default (20, 2) is the
 paper's planner budget (``ArmConfig.rrt_iterations``).
@@ -261,11 +271,17 @@ def qmap_size_for(image_size: int, qmap_size: int | None = None) -> int:
     return int(qmap_size)
 
 
+FEEDBACK_MAP_CHANNELS = ("base", "arm")  # SGP-D's ``subgoal_feedback`` channels of ``local_map``, in order
+FEEDBACK_EXECUTED = 255  # the previous subgoal's cell when it executed something
+FEEDBACK_NO_OP = 128  # ... when it executed nothing
+
+
 class SubgoalDControl(SubgoalControl):
     name = "subgoal-d"
 
     def __init__(self, env: RelmogenEnv, push_length: float = PUSH_MAX, push_frame: str = "base",
-                 qmap_size: int | None = None, reach_mask: str = "sphere", **options: Any):
+                 qmap_size: int | None = None, reach_mask: str = "sphere", subgoal_feedback: bool = False,
+                 **options: Any):
         if push_frame not in PUSH_FRAMES:
             raise ValueError(f"unknown push_frame {push_frame!r}; valid: {', '.join(PUSH_FRAMES)}")
         if reach_mask not in REACH_MASKS:
@@ -278,7 +294,10 @@ class SubgoalDControl(SubgoalControl):
         self.push_length, self.push_frame = float(push_length), push_frame
         self.num_base = YAW_BINS * self.q * self.q
         self.action_space = spaces.Discrete(self.num_base + PUSH_BINS * self.q * self.q)
-        self.map_channels = 2 if env.task.has_map_marks else 1
+        self.map_channels = 2 if env.task.has_map_marks else 1  # sensed: occupancy (and the task's marks)
+        self.subgoal_feedback = bool(subgoal_feedback)
+        self.feedback_channels = len(FEEDBACK_MAP_CHANNELS) if self.subgoal_feedback else 0
+        self.reset()
         self._base_mask = np.ones((self.q, self.q), dtype=bool)
         self._arm_mask = np.ones((self.q, self.q), dtype=bool)
         self._inward_heading = np.zeros((self.q, self.q))  # base frame, into each cell's surface
@@ -295,16 +314,31 @@ class SubgoalDControl(SubgoalControl):
             raise ValueError(f"no {part} action with bin {bin_} at cell ({i}, {j}): {bins} bins, {self.q} x {self.q} cells")
         return int(encode_indices(part != "base", bin_, i, j, self.q))
 
+    def reset(self) -> None:
+        self._feedback = np.zeros((self.map_pixels, self.map_pixels, self.feedback_channels), dtype=np.uint8)
+
     def step(self, action) -> StepOutcome:
         index = self._validate(action)
         part, bin_, i, j = self.decode(index)
+        result, rewards = self._execute(part, bin_, i, j)
+        if self.subgoal_feedback:
+            self._remember_subgoal(part, i, j, executed_nothing(result))
+        return self.outcome(result, rewards, action_index=index)
+
+    def _execute(self, part: str, bin_: int, i: int, j: int) -> tuple[SubgoalResult, RewardAccumulator]:
         if part not in self.parts:
             skipped = SubgoalResult(part, "none", False, f"{part} subgoals are not used by {self.env.task.name}")
-            return self.outcome(skipped, RewardAccumulator(self.env).close(), action_index=index)
+            return skipped, RewardAccumulator(self.env).close()
         if part == "base":
-            return self.outcome(*self.execute_base(self.base_goal(bin_, i, j)), action_index=index)
-        return self.outcome(*self.execute_arm(*self.cell_pixel(i, j), self.push_vector(bin_, i, j)),
-                            action_index=index)
+            return self.execute_base(self.base_goal(bin_, i, j))
+        return self.execute_arm(*self.cell_pixel(i, j), self.push_vector(bin_, i, j))
+
+    def _remember_subgoal(self, part: str, i: int, j: int, no_op: bool) -> None:
+        """``subgoal_feedback``: only this subgoal's cell, on its part's channel, valued by its outcome."""
+        c = self.cell_pixels
+        self._feedback[:] = 0
+        self._feedback[c * i:c * (i + 1), c * j:c * (j + 1), FEEDBACK_MAP_CHANNELS.index(part)] = (
+            FEEDBACK_NO_OP if no_op else FEEDBACK_EXECUTED)
 
     def base_goal(self, bin_: int, i: int, j: int) -> np.ndarray:
         """Robot-frame (x, y, yaw change) of base action (bin_, i, j): its local-map cell's centre."""
@@ -374,10 +408,11 @@ class SubgoalDControl(SubgoalControl):
         channels = [obs_map.grid]
         if self.map_channels == 2:
             channels.append(_draw_marks(obs_map, *self.env.task.map_marks()))
+        channels.extend(np.moveaxis(self._feedback, -1, 0))  # none unless ``subgoal_feedback``
         return {"local_map": np.stack(channels, axis=-1)}
 
     def extra_observation_space(self) -> dict[str, spaces.Space]:
-        shape = (self.map_pixels, self.map_pixels, self.map_channels)
+        shape = (self.map_pixels, self.map_pixels, self.map_channels + self.feedback_channels)
         return {"local_map": spaces.Box(0, 255, shape, np.uint8)}
 
     def extra_info(self) -> dict[str, np.ndarray]:

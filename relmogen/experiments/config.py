@@ -8,6 +8,7 @@ saved next to the run (``config.yaml``) so a run can always be resumed or reprod
 
 from __future__ import annotations
 
+import difflib
 import math
 from pathlib import Path
 from typing import Literal
@@ -49,7 +50,8 @@ class EnvConfig(_Strict):
     # inflation (ours; 0 is the paper's): the base cannot park where the arm has no room to push
     base_goal_clearance: float = Field(0.0, ge=0, le=1.0)
     noop_cost: float = Field(0.0, ge=0)  # subgoal controls: reward -cost for a subgoal that executed nothing (ours)
-    # relmogen-r: observe the previous subgoal and whether it executed nothing (ours; subgoal_controls.py)
+    # relmogen-r and relmogen-d: observe the previous subgoal and whether it executed nothing (ours; relmogen-d
+    # draws its cell into two more local_map channels; subgoal_controls.py)
     subgoal_feedback: bool = False
     # subgoal controls: (iterations, restarts) of the arm's RRT-Connect; (20, 2) is the paper's
     # planner budget. (100, 4) turned most of the shipped policy's "no arm plan" subgoals into plans
@@ -263,6 +265,13 @@ class TrainConfig(_Strict):
             raise ValueError(f"n_step_returns: relmogen-d only (its replay buffer computes them), not {self.algo}")
         return self
 
+    @model_validator(mode="after")
+    def _feedback_stays_with_the_image(self) -> TrainConfig:
+        if self.algo == "relmogen-d" and self.env.subgoal_feedback and self.algo_params.shift_cells:
+            raise ValueError("env.subgoal_feedback with algo.shift_cells: the shift moves the camera image but not "
+                             "the previous arm subgoal's cell drawn in local_map; use one of them")
+        return self
+
 
 def available_presets() -> list[str]:
     return sorted(path.stem for path in PRESET_DIR.glob("*.yaml"))
@@ -297,30 +306,98 @@ def recorded_preset(preset: str) -> str:
     return str(preset_path(preset)) if is_preset_file(preset) else preset
 
 
+def did_you_mean(name: str, valid, prefix: str = "") -> str:
+    """``"; did you mean {prefix}X?"`` for the valid name X nearest ``name``, or ``""``: difflib's
+    closest match among the names and their heads (so ``evl_every`` finds ``eval_every_episodes``)."""
+    valid = [str(option) for option in valid]
+    heads: dict[str, str] = {}
+    for option in valid:
+        heads.setdefault(option[:len(name) + 1], option)
+    close = difflib.get_close_matches(name, valid + list(heads), n=1)
+    if not close:
+        return ""
+    return f"; did you mean {prefix}{close[0] if close[0] in valid else heads[close[0]]}?"
+
+
 def load_preset(preset: str) -> dict:
-    """The sections of a preset, given by name or as a YAML file path (``is_preset_file``)."""
+    """The sections of a preset, given by name or as a YAML file path (``is_preset_file``); an
+    unknown section, algorithm block or key is a ValueError naming the nearest valid one."""
     path = preset_path(preset)
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as error:
-        raise ValueError(f"preset file {path} is not valid YAML: {error}") from error
+        raise ValueError(f"preset file {path} is not valid YAML: {' '.join(str(error).split())}") from error
     data = {} if data is None else data
-    if not isinstance(data, dict) or set(data) - set(PRESET_SECTIONS):
-        found = sorted(data) if isinstance(data, dict) else type(data).__name__
+    if not isinstance(data, dict):
         raise ValueError(f"preset file {path} must be a mapping with the sections {', '.join(PRESET_SECTIONS)} "
-                         f"(see {PRESET_DIR / 'cpu.yaml'}); found {found}")
+                         f"(see {PRESET_DIR / 'cpu.yaml'}); found {type(data).__name__}")
+    _check_preset_keys(data, f"preset file {path}")
     return data
+
+
+def _check_preset_keys(data: dict, where: str) -> None:
+    for section in data:
+        if section not in PRESET_SECTIONS:
+            raise ValueError(f"{where}: unknown section {section!r}{did_you_mean(str(section), PRESET_SECTIONS)} "
+                             f"(sections {', '.join(PRESET_SECTIONS)}; see {PRESET_DIR / 'cpu.yaml'})")
+    _check_block_keys(data.get("env"), EnvConfig, where, "env")
+    algos = data.get("algos") or {}
+    if not isinstance(algos, dict):
+        raise ValueError(f"{where}: algos must map algorithm names ({', '.join(ALGOS)}) to their settings")
+    for algo, block in algos.items():
+        if algo not in ALGOS:
+            raise ValueError(f"{where}: unknown algorithm block {algo!r} under algos{did_you_mean(str(algo), ALGOS)} "
+                             f"(the algorithms: {', '.join(ALGOS)})")
+        _check_block_keys(block, AlgoConfig, where, f"algos.{algo}")
+    _check_block_keys(data.get("run"), RunSettings, where, "run")
+
+
+def _check_block_keys(block, model: type[BaseModel], where: str, path: str) -> None:
+    if block is None:
+        return
+    if not isinstance(block, dict):
+        raise ValueError(f"{where}: {path} must be a mapping of settings, not {type(block).__name__}")
+    for key in block:
+        if key not in model.model_fields:
+            raise ValueError(f"{where}: unknown key {path}.{key}{did_you_mean(str(key), model.model_fields, path + '.')}")
+
+
+# ``--set`` sections and the model of each; other keys are TrainConfig's own (task, episodes, max_cpu_hours, ...)
+OVERRIDE_SECTIONS = {"env": "env", "algo": "algo_params", "run": "run"}
+
+
+def check_override_key(assignment: str) -> None:
+    """A ValueError, naming the nearest valid key, unless ``assignment`` is ``section.key=value``
+    with a key of env, algo or run, or ``key=value`` with a top-level key (``max_cpu_hours=2``)."""
+    if "=" not in assignment:
+        raise ValueError(f"override {assignment!r} must look like section.key=value")
+    dotted = assignment.split("=", 1)[0].strip()
+    parts = dotted.split(".")
+    section_models = {"env": EnvConfig, "algo": AlgoConfig, "run": RunSettings}
+    top_level = [key for key in TrainConfig.model_fields if key not in OVERRIDE_SECTIONS.values()]
+    if len(parts) == 1:
+        if parts[0] not in top_level:
+            valid = top_level + [f"{section}.KEY" for section in section_models]
+            raise ValueError(f"--set {assignment}: unknown key {dotted}{did_you_mean(dotted, top_level)} "
+                             f"(valid: {', '.join(valid)})")
+        return
+    section, key = parts[0], ".".join(parts[1:])
+    if section not in section_models:
+        raise ValueError(f"--set {assignment}: unknown section {section}{did_you_mean(section, section_models)} "
+                         f"(the sections: {', '.join(section_models)})")
+    fields = section_models[section].model_fields
+    if key not in fields:
+        raise ValueError(f"--set {assignment}: unknown key {dotted}{did_you_mean(key, fields, f'{section}.')}")
 
 
 def _apply_override(tree: dict, assignment: str) -> None:
     """``section.key=value`` with a YAML-parsed value (``env.n_envs=4``, ``algo.net_arch=[64,64]``)."""
-    if "=" not in assignment:
-        raise ValueError(f"override {assignment!r} must look like section.key=value")
+    check_override_key(assignment)
     dotted, raw = assignment.split("=", 1)
     *parents, key = dotted.strip().split(".")
     node = tree
     for part in parents:
-        node = node.setdefault("algo_params" if part == "algo" else part, {})
+        node = node.setdefault(OVERRIDE_SECTIONS[part], {})
     node[key] = yaml.safe_load(raw)
 
 
@@ -344,7 +421,21 @@ def _validated(tree: dict) -> TrainConfig:
     try:
         return TrainConfig.model_validate(tree)
     except ValidationError as error:
-        raise ValueError(f"invalid configuration:\n{error}") from error
+        raise ValueError(f"invalid configuration: {validation_line(error)}") from None
+
+
+def validation_line(error: ValidationError) -> str:
+    """pydantic's errors as one line, each with its key as ``--set`` spells it (``algo.batch_size``)."""
+    return "; ".join(_error_text(detail) for detail in error.errors())
+
+
+def _error_text(detail: dict) -> str:
+    location = ".".join("algo" if part == "algo_params" else str(part) for part in detail["loc"])
+    message = detail["msg"].removeprefix("Value error, ")
+    if detail["type"] == "extra_forbidden":
+        message = "unknown key"
+    text = f"{location}: {message}" if location and f"{location}." not in message else message
+    return " ".join(text.split())  # pydantic's messages may span lines
 
 
 def with_overrides(config: TrainConfig, overrides: list[str]) -> TrainConfig:
@@ -378,6 +469,7 @@ def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainCon
     (``RESUMABLE_BUDGET_KEYS``) may change."""
     tree = config.model_dump()
     for assignment in overrides:
+        check_override_key(assignment)
         section = assignment.split("=", 1)[0].strip().split(".")
         if (section[0] == "run" and len(section) == 2) or (section[0] in RESUMABLE_BUDGET_KEYS and len(section) == 1):
             pass
@@ -400,4 +492,7 @@ def save_config(config: TrainConfig, path: Path) -> None:
 
 
 def read_config(path: Path) -> TrainConfig:
-    return TrainConfig.model_validate(yaml.safe_load(Path(path).read_text()))
+    try:
+        return _validated(yaml.safe_load(Path(path).read_text()))
+    except ValueError as error:
+        raise ValueError(f"{path}: {error}") from None

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from relmogen.agents.shipped import open_shipped, shipped_policy_dir
+from relmogen.experiments.shipped import open_shipped, shipped_policy_dir
 from relmogen.experiments.rollout import aggregate, run_episodes
-from relmogen.visualisation.video import VIDEO_FPS, AnnotatedRecorder
-from relmogen.visualisation.views import check_animation_path, write_animation
+from relmogen.experiments.video import VIDEO_FPS, AnnotatedRecorder
+from relmogen.simulation.views import check_animation_path, write_animation
 
 DEMO_POLICY = "PushDoorNav-relmogen-r"
 GIF_FPS = 8

@@ -30,7 +30,7 @@ evaluation's episode seeds (``eval_seed`` up to ``eval_seed + episodes - 1``) an
 ``training_seed``; its file in ``RUN/eval/`` is named after the setting, the checkpoint and
 ``eval_seed``, so evaluations of other checkpoints or seeds sit beside it (an exported actor's
 results are only returned: its folder may be inside the installed package). ``video`` records the first episode
-(``relmogen.visualisation.video``).
+(``relmogen.experiments.video``).
 """
 
 from __future__ import annotations
@@ -45,16 +45,16 @@ import torch as th
 
 from relmogen.agents.demonstrations import OracleAgreement
 from relmogen.agents.oracles import ORACLES
-from relmogen.agents.shipped import SHIPPABLE_ALGOS
+from relmogen.experiments.shipped import SHIPPABLE_ALGOS
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import EnvConfig, TrainConfig
 from relmogen.experiments.loading import load_checkpoint, load_policy, resolve_checkpoint  # noqa: F401 (re-exported)
 from relmogen.experiments.loading import load_trained, policy_act
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
-from relmogen.experiments.train import env_kwargs
-from relmogen.visualisation.video import VIDEO_FPS, AnnotatedRecorder
-from relmogen.visualisation.views import check_animation_path, write_animation
+from relmogen.experiments.environments import env_kwargs
+from relmogen.experiments.video import VIDEO_FPS, AnnotatedRecorder
+from relmogen.simulation.views import check_animation_path, write_animation
 
 
 @contextlib.contextmanager
@@ -122,7 +122,7 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
                         base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
                         arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance)
-    if config.control == "subgoal-r":
+    if config.control in ("subgoal-r", "subgoal-d"):
         settings["subgoal_feedback"] = config.env.subgoal_feedback
     result = {**settings, **aggregate(records)}
     if agreement is not None:

@@ -19,7 +19,7 @@ INIT_LOG = "init_from.json"
 def init_source(config: TrainConfig, path: Path) -> tuple[Path, Path]:
     """(checkpoint folder, run directory) of ``--init-from``: a run directory's latest checkpoint
     or a checkpoint folder; its run must have trained the same algorithm."""
-    from relmogen.experiments.evaluate import resolve_checkpoint
+    from relmogen.experiments.loading import resolve_checkpoint
 
     folder, run_dir = resolve_checkpoint(Path(path), "latest")
     source = read_config(run_dir / "config.yaml")
@@ -46,7 +46,7 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
     Returns what was loaded, for ``init_from.json``."""
     from stable_baselines3.common.save_util import load_from_zip_file, recursive_setattr
 
-    from relmogen.experiments.train import checkpoint_state, latest_replay
+    from relmogen.experiments.checkpoints import checkpoint_state, latest_replay
 
     data, params, variables = load_from_zip_file(Path(folder) / "model.zip", device=model.device)
     for name in ("observation_space", "action_space"):

@@ -23,12 +23,13 @@ import torch as th
 from relmogen.agents.addons.critic_select import critic_selected
 from relmogen.agents.addons.skip_no_ops import sample_after_no_ops
 from relmogen.agents.dqn import env_policy
-from relmogen.agents.shipped import CONFIG_FILE, exported_model, is_exported_policy, read_provenance
+from relmogen.experiments.shipped import CONFIG_FILE, exported_model, is_exported_policy, read_provenance
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import TrainConfig, read_config
-from relmogen.experiments.train import (CHECKPOINTS, best_checkpoint, checkpoint_state, env_kwargs,
-                                        latest_checkpoint, model_class, require_device, resolve_device,
-                                        run_config_file)
+from relmogen.experiments.checkpoints import (CHECKPOINTS, best_checkpoint, checkpoint_state, latest_checkpoint,
+                                              run_config_file)
+from relmogen.experiments.environments import env_kwargs
+from relmogen.experiments.models import model_class, require_device, resolve_device
 
 CHECKPOINT_CHOICES = ("latest", "best")
 MISSING_CHECKPOINT = {

@@ -8,8 +8,8 @@ from relmogen.agents.oracles import make_policy
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.envs.subgoal_controls import SubgoalRControl
 from relmogen.experiments.rollout import aggregate, run_episode, run_episodes
-from relmogen.visualisation.video import VIDEO_FPS, AnnotatedRecorder
-from relmogen.visualisation.views import check_animation_path, write_animation
+from relmogen.experiments.video import VIDEO_FPS, AnnotatedRecorder
+from relmogen.simulation.views import check_animation_path, write_animation
 
 ORACLE_CONTROLS = ("subgoal-r", "subgoal-d")
 
@@ -21,7 +21,7 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
     """Oracles decide in ``subgoal-r`` actions. Through ``control="subgoal-d"`` each one is
     executed as the nearest discrete action (``SubgoalDControl.nearest_index``): the ceiling of
     SGP-D's action space at that image size and push frame. ``video`` (.gif or .mp4) records one
-    more episode with the evaluation's overlays (``relmogen.visualisation.video``)."""
+    more episode with the evaluation's overlays (``relmogen.experiments.video``)."""
     if video is not None:
         check_animation_path(video)
     if control not in ORACLE_CONTROLS:

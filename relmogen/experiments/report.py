@@ -127,7 +127,7 @@ def summarise(values: list[float]) -> dict[str, float]:
 
 
 def collect(run_dirs: list[Path], checkpoint: str = "latest") -> dict[tuple[str, str], list[dict]]:
-    from relmogen.experiments.train import run_config_file
+    from relmogen.experiments.checkpoints import run_config_file
 
     run_dirs = [Path(run_dir) for run_dir in run_dirs]
     for run_dir in run_dirs:
@@ -174,7 +174,7 @@ def _milestones(runs: list[dict]) -> dict[str, list[int | None]]:
 
 def _state(run_dir: Path) -> dict:
     """Budget spent: ``done.json`` of a finished run, else its latest checkpoint's state."""
-    from relmogen.experiments.train import latest_checkpoint
+    from relmogen.experiments.checkpoints import latest_checkpoint
 
     done = run_dir / "done.json"
     if done.is_file():

@@ -38,7 +38,7 @@ FRAME_PERIOD_S = 0.4  # simulated seconds between video frames while a subgoal e
 class FrameRecorder:
     """Third-person frames of one episode: after the reset, every ``FRAME_PERIOD_S`` of simulated
     time while a subgoal executes (the environment's ``frame_hook``) and after each step.
-    ``relmogen.visualisation.video.AnnotatedRecorder`` draws what the policy chose on them."""
+    ``relmogen.experiments.video.AnnotatedRecorder`` draws what the policy chose on them."""
 
     def __init__(self) -> None:
         self.frames: list[np.ndarray] = []

@@ -279,7 +279,7 @@ def run_progress(run_dir: Path | None) -> dict:
     lines = periodic.read_text().strip().splitlines() if periodic.is_file() else []
     if lines:
         progress["eval_sr"] = json.loads(lines[-1]).get("success_rate")
-    from relmogen.experiments.train import latest_checkpoint
+    from relmogen.experiments.checkpoints import latest_checkpoint
 
     checkpoint = latest_checkpoint(run_dir)
     for state_file in (run_dir / "done.json", checkpoint / "state.json" if checkpoint else None):
@@ -471,7 +471,7 @@ def evaluate_and_report(out: Path, manifest: dict | None = None, executor=None,
 
 
 def _has_table1_evaluation(run_dir: Path, episodes: int) -> bool:
-    from relmogen.experiments.train import latest_checkpoint
+    from relmogen.experiments.checkpoints import latest_checkpoint
 
     checkpoint = latest_checkpoint(run_dir)
     pattern = f"*collision-on_{episodes}ep_{checkpoint.name if checkpoint else 'none'}_seed{EVAL_SEED}.json"

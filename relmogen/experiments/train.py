@@ -4,9 +4,9 @@ A run directory ``{task}__{algo}__{seed}__{time}`` holds ``config.yaml`` (the re
 configuration), ``episodes.csv`` (one row per finished training episode), TensorBoard events
 (x-axis: environment episodes, as the paper plots), and ``checkpoints/`` with the model and,
 in its own folder, the replay buffer. The model is saved every ``run.checkpoint_every_episodes``
-and the replay (gigabytes for SGP-R) every ``run.replay_every_episodes``. Each is written to a
-fresh folder and published by atomically replacing ``checkpoints/latest`` /
-``checkpoints/latest_replay``, so ``kill -9`` at any moment leaves the previous ones intact;
+and the replay (gigabytes for SGP-R) every ``run.replay_every_episodes``; both at every end of
+training. Each is written to a fresh folder and published by atomically replacing
+``checkpoints/latest`` / ``checkpoints/latest_replay``, so ``kill -9`` at any moment leaves the previous ones intact;
 ``--resume RUN_DIR`` continues from them: at most one model interval of learning is lost, and
 the transitions collected since the last replay save. A stop asked for (Ctrl-C: SIGINT, or
 SIGTERM) ends the run after the current environment step and writes both, so nothing is lost,
@@ -20,7 +20,6 @@ from __future__ import annotations
 import csv
 import difflib
 import json
-import os
 import shutil
 import signal
 import sys
@@ -34,273 +33,30 @@ import torch as th
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env import DummyVecEnv
 from torch.utils.tensorboard import SummaryWriter
 
-from relmogen.agents.demonstrations import OracleLabels, add_demonstrations
-from relmogen.agents.dqn import RelmogenDQN
-from relmogen.agents.hrl4in import HRL4IN, build_hrl4in
-from relmogen.agents.networks import SGPREncoder
-from relmogen.agents.replay import CompactDictReplayBuffer, resize_replay_buffer
-from relmogen.agents.sac import OAC, SharedEncoderSAC
-from relmogen.envs.hrl4in_wrapper import RobotStateObservation
+from relmogen.agents.demonstrations import add_demonstrations
+from relmogen.agents.replay import resize_replay_buffer
 from relmogen.envs.relmogen_env import RelmogenEnv
+# The model factory, environment factory and checkpoint store live in their own modules; their
+# public names stay importable from here.
+from relmogen.experiments.checkpoints import (  # noqa: F401
+    BEST, CHECKPOINTS, LATEST, LATEST_REPLAY, REPLAY_FILE, best_checkpoint, best_evaluation, checkpoint_state,
+    evaluation_rank, latest_checkpoint, latest_replay, run_config_file, write_best_checkpoint, write_checkpoint,
+    write_evaluated_checkpoint)
 from relmogen.experiments.config import TrainConfig, override_config, read_config, save_config
+from relmogen.experiments.env_workers import EnvWorkerError
+from relmogen.experiments.environments import (  # noqa: F401
+    env_kwargs, make_training_env, training_env_kwargs, vec_env_of, worker_env)
 from relmogen.experiments.finetune import INIT_LOG, init_source, initialise_from, read_init_from
-from relmogen.experiments.env_workers import WORKER_ERRORS, EnvWorkerError, GuardedSubprocVecEnv, WorkerErrorLog
+from relmogen.experiments.models import build_dqn, build_model, model_class, require_device, resolve_device  # noqa: F401
 
-CHECKPOINTS = "checkpoints"
-LATEST = "latest"  # a file naming the newest complete model checkpoint folder
-LATEST_REPLAY = "latest_replay"  # a file naming the newest complete replay folder
-BEST = "best"  # a file naming the model folder of the best periodic evaluation so far
-REPLAY_FILE = "replay_buffer.pkl"
 EPISODE_FIELDS = ["episode", "timesteps", "wall_time_s", "return", "length", "success",
                   "base_fraction", "subgoal_success",  # subgoal controls only
                   "closed_10"]  # tasks that count closed items (ArrangeKitchenMM)
 SUCCESS_WINDOW = 20
 
 
-def resolve_device(device: str) -> str:
-    if device == "auto":
-        return "cuda" if th.cuda.is_available() else "cpu"
-    return device
-
-
-def require_device(device: str) -> str:
-    """``device`` when this machine has it: ``auto``, ``cpu``, ``cuda[:N]`` with CUDA, ``mps`` with
-    MPS. An accelerator that is missing is an error, not a silent run on the CPU."""
-    if device == "auto":
-        return device
-    try:
-        kind = th.device(device).type
-    except RuntimeError as error:
-        raise ValueError(f"unknown device {device!r}; use auto, cpu or cuda") from error
-    available = {"cpu": True, "cuda": th.cuda.is_available(), "mps": th.backends.mps.is_available()}
-    if not available.get(kind, False):
-        raise ValueError(f"device {device!r} is not available on this machine; use --device cpu or --device auto")
-    return device
-
-
-def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | None = None,
-               arm_planner: str | None = None, scene: str | None = None) -> dict:
-    kwargs = {"task": config.task, "control": config.control, "image_size": config.env.image_size,
-              "scene": scene or config.env.scene, "robot": config.env.robot, "obs_mode": config.env.obs_mode}
-    if config.env.episode_steps is not None:
-        kwargs["episode_steps"] = config.env.episode_steps
-    if config.control != "joint":
-        kwargs.update(base_planner=base_planner or config.env.base_planner,
-                      arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
-                      base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
-                      arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance)
-    if config.control == "subgoal-r" and config.env.subgoal_feedback:
-        kwargs["subgoal_feedback"] = True
-    if config.control == "subgoal-d":
-        kwargs.update(push_frame=config.env.push_frame, qmap_size=config.env.qmap_size,
-                      reach_mask=config.env.reach_mask)
-    return kwargs
-
-
-def training_env_kwargs(config: TrainConfig) -> list[dict]:
-    """Each training environment's ``RelmogenEnv`` keyword arguments: the last
-    ``config.env.second_scene_envs`` of them in ``env.second_scene`` (the paper's fine-tuning to
-    a new scene swaps half of the training environments), the others in ``env.scene``."""
-    kwargs = env_kwargs(config, arm_collision=config.env.arm_collision_train)
-    first = config.env.n_envs - config.env.second_scene_envs
-    return [kwargs if rank < first else dict(kwargs, scene=config.env.second_scene)
-            for rank in range(config.env.n_envs)]
-
-
-def vec_env_of(per_env: list[dict], seed: int, vec_env_cls, vec_env_kwargs: dict | None = None,
-               wrapper_class=None, wrapper_kwargs: dict | None = None):
-    """SB3's ``make_vec_env`` for ``RelmogenEnv``s that each have their own keyword arguments, with
-    its steps: environment ``rank``'s action space seeded with ``seed + rank``, ``Monitor``, then
-    ``wrapper_class``; the vector environment seeded for its first reset."""
-    def make(rank: int, kwargs: dict):
-        def init():
-            env = RelmogenEnv(**kwargs)
-            env.action_space.seed(seed + rank)
-            env = Monitor(env)
-            return env if wrapper_class is None else wrapper_class(env, **(wrapper_kwargs or {}))
-        return init
-
-    vec_env = vec_env_cls([make(rank, kwargs) for rank, kwargs in enumerate(per_env)], **(vec_env_kwargs or {}))
-    vec_env.seed(seed)
-    return vec_env
-
-
-def make_training_env(config: TrainConfig, run_dir: Path | None = None):
-    """The training environments: in-process for one, else one worker process each
-    (``GuardedSubprocVecEnv``: a dead or stuck worker raises ``EnvWorkerError`` instead of hanging;
-    with ``run_dir``, a worker's exception is logged to ``run_dir/worker_errors.log``)."""
-    per_env = training_env_kwargs(config)
-    oracle_labels = config.algo_params.oracle_labels
-    if config.env.n_envs == 1:
-        return vec_env_of(per_env, seed=config.seed, vec_env_cls=DummyVecEnv,
-                          wrapper_class=OracleLabels if oracle_labels else
-                          (RobotStateObservation if config.algo == "hrl4in" else None))
-    error_log = str(Path(run_dir) / WORKER_ERRORS) if run_dir is not None else None
-    return vec_env_of(per_env, seed=config.seed, vec_env_cls=GuardedSubprocVecEnv,
-                      vec_env_kwargs={"timeout_s": config.run.worker_timeout_s, "error_log": error_log},
-                      wrapper_class=worker_env, wrapper_kwargs={"oracle_labels": oracle_labels,
-                                                                "robot_state": config.algo == "hrl4in",
-                                                                "error_log": error_log})
-
-
-def worker_env(env, oracle_labels: bool = False, error_log: str | None = None, robot_state: bool = False):
-    """A worker's environment: ``OracleLabels`` when asked, inside ``WorkerErrorLog``."""
-    if robot_state:  # hrl4in: the robot's world state travels with the observation
-        env = RobotStateObservation(env)
-    return WorkerErrorLog(OracleLabels(env) if oracle_labels else env, error_log)
-
-
-def build_model(config: TrainConfig, env):
-    th.set_num_threads(config.run.torch_threads)
-    if config.algo == "relmogen-d":
-        return build_dqn(config, env)
-    if config.algo == "hrl4in":  # two SAC levels and their own collection loop (agents/hrl4in.py)
-        return build_hrl4in(config, env, resolve_device(config.device))
-    params = config.algo_params
-    # fused Adam: one kernel per step instead of one per tensor (updates 72 -> 69 ms of CPU, batch 64)
-    policy_kwargs = dict(net_arch=params.net_arch, optimizer_kwargs={"fused": True})
-    if config.env.obs_mode == "rgbd":  # state: SB3's CombinedExtractor flattens the vector
-        policy_kwargs.update(features_extractor_class=SGPREncoder, normalize_images=False,
-                             features_extractor_kwargs={"image_shift": params.image_shift})
-    common = dict(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
-                  batch_size=params.batch_size, tau=params.tau, gamma=params.gamma,
-                  learning_starts=params.learning_starts, train_freq=params.train_freq,
-                  gradient_steps=params.gradient_steps, ent_coef=f"auto_{params.ent_coef_init}",
-                  ent_coef_min=params.ent_coef_min,
-                  target_entropy="auto" if params.target_entropy is None else params.target_entropy,
-                  policy_kwargs=policy_kwargs, replay_buffer_class=CompactDictReplayBuffer, seed=config.seed,
-                  device=resolve_device(config.device), verbose=0)
-    if config.algo == "oac":
-        return OAC(beta_ub=params.beta_ub or 4.66, delta=params.delta or 23.53, **common)
-    return SharedEncoderSAC(**common)
-
-
-def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
-    from relmogen.tasks import task_class
-
-    params = config.algo_params
-    policy_kwargs = {key: value for key, value in
-                     (("widths", params.qmap_widths), ("head_width", params.qmap_head_width),
-                      ("skip", params.qmap_skip), ("bf16", params.qmap_bf16), ("unet", params.qmap_unet),
-                      ("head_kernel", params.qmap_head_kernel))
-                     if value is not None}
-    optional = {key: getattr(params, key) for key in
-                ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-                 "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels",
-                 "exploration_temperature", "priority_alpha", "priority_beta", "shift_cells")
-                if getattr(params, key) is not None}
-    return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
-                       demo_margin_weight=params.demo_margin_weight,
-                       replay_buffer_kwargs={"keep_demonstrations": params.demo_keep},
-                       batch_size=params.batch_size, gamma=params.gamma, learning_starts=params.learning_starts,
-                       train_freq=params.train_freq, gradient_steps=params.gradient_steps, tau=params.tau,
-                       subgoal_parts=task_class(config.task).subgoal_parts, policy_kwargs=policy_kwargs,
-                       seed=config.seed, device=resolve_device(config.device), verbose=0, **optional)
-
-
-def model_class(config: TrainConfig):
-    return {"oac": OAC, "relmogen-d": RelmogenDQN, "hrl4in": HRL4IN}.get(config.algo, SharedEncoderSAC)
-
-
-# ------------------------------------------------------------------------ checkpoints
-def latest_checkpoint(run_dir: Path) -> Path | None:
-    return _pointed_checkpoint(run_dir, LATEST)
-
-
-def best_checkpoint(run_dir: Path) -> Path | None:
-    """The model of the best periodic evaluation so far (``TrainingMonitor.evaluate``), or None."""
-    return _pointed_checkpoint(run_dir, BEST)
-
-
-def _pointed_checkpoint(run_dir: Path, pointer_name: str) -> Path | None:
-    pointer = Path(run_dir) / CHECKPOINTS / pointer_name
-    if not pointer.is_file():
-        return None
-    folder = pointer.parent / pointer.read_text().strip()
-    return folder if (folder / "model.zip").is_file() else None
-
-
-def best_evaluation(run_dir: Path) -> dict | None:
-    """The periodic evaluation recorded with ``checkpoints/best``, or None before the first one."""
-    checkpoint = best_checkpoint(run_dir)
-    return json.loads((checkpoint / "state.json").read_text()).get("evaluation") if checkpoint else None
-
-
-def evaluation_rank(evaluation: dict) -> tuple[float, float, float]:
-    """Orders evaluations, best last: success rate, then items closed (``closed_10``), then mean
-    return, so ties and tasks that never succeed are decided by the next figure."""
-    return (evaluation.get("success_rate", 0.0), evaluation.get("closed_10", 0.0),
-            evaluation.get("mean_return", -np.inf))
-
-
-def latest_replay(run_dir: Path) -> Path | None:
-    """The newest saved replay buffer file: its own folder (``latest_replay``), or inside the
-    model checkpoint for runs saved before the two were split."""
-    root = Path(run_dir) / CHECKPOINTS
-    pointer = root / LATEST_REPLAY
-    if pointer.is_file() and (root / pointer.read_text().strip() / REPLAY_FILE).is_file():
-        return root / pointer.read_text().strip() / REPLAY_FILE
-    checkpoint = latest_checkpoint(run_dir)
-    return checkpoint / REPLAY_FILE if checkpoint is not None and (checkpoint / REPLAY_FILE).is_file() else None
-
-
-def checkpoint_state(folder: Path) -> dict:
-    """The ``state.json`` of a checkpoint folder (episodes, timesteps, ...); {} if it has none."""
-    path = Path(folder) / "state.json"
-    return json.loads(path.read_text()) if path.is_file() else {}
-
-
-def write_checkpoint(run_dir: Path, model, state: dict, with_replay: bool = True) -> Path:
-    """The model (and, when asked, the replay buffer in its own folder) published atomically;
-    older folders of the same kind are removed once the new one is in place."""
-    root = Path(run_dir) / CHECKPOINTS
-    if with_replay:
-        _write_folder(root, f"replay_{state['episodes']:07d}", LATEST_REPLAY,
-                      lambda folder: model.save_replay_buffer(folder / REPLAY_FILE), state)
-    return _write_folder(root, f"episode_{state['episodes']:07d}", LATEST,
-                         lambda folder: model.save(folder / "model.zip"), state)
-
-
-def write_best_checkpoint(run_dir: Path, model, state: dict) -> Path:
-    """The model alone (no replay) as ``checkpoints/best_<episode>``, published atomically through
-    ``checkpoints/best``; ``state["evaluation"]`` is the evaluation that made it the best."""
-    return _write_folder(Path(run_dir) / CHECKPOINTS, f"best_{state['episodes']:07d}", BEST,
-                         lambda folder: model.save(folder / "model.zip"), state)
-
-
-def write_evaluated_checkpoint(run_dir: Path, model, state: dict) -> Path:
-    """The model alone as ``checkpoints/evaluated_<episode>`` (``run.keep_evaluated``); earlier
-    ones are kept, ``checkpoints/evaluated`` names the newest."""
-    return _write_folder(Path(run_dir) / CHECKPOINTS, f"evaluated_{state['episodes']:07d}", "evaluated",
-                         lambda folder: model.save(folder / "model.zip"), state, prune=False)
-
-
-def _write_folder(root: Path, name: str, pointer: str, write, state: dict, prune: bool = True) -> Path:
-    folder, staging = root / name, root / f".staging_{os.getpid()}"
-    shutil.rmtree(staging, ignore_errors=True)
-    staging.mkdir(parents=True)
-    write(staging)
-    (staging / "state.json").write_text(json.dumps(state))
-    if (staging / "model.zip").is_file() and (root.parent / "config.yaml").is_file():
-        shutil.copy(root.parent / "config.yaml", staging)  # a model carries its settings (loading.py)
-    shutil.rmtree(folder, ignore_errors=True)
-    os.replace(staging, folder)
-    _publish(root, folder.name, pointer)
-    if prune:
-        for old in root.glob(name.split("_")[0] + "_*"):
-            if old.name != folder.name:
-                shutil.rmtree(old, ignore_errors=True)
-    return folder
-
-
-def _publish(root: Path, name: str, pointer: str) -> None:
-    tmp = root / f".{pointer}.tmp"
-    tmp.write_text(name)
-    os.replace(tmp, root / pointer)
 
 
 def process_tree_cpu_seconds() -> float:
@@ -337,6 +93,58 @@ def hms(seconds: float) -> str:
     """``H:MM:SS``, as rich's elapsed-time column shows it."""
     minutes, secs = divmod(int(round(seconds)), 60)
     return f"{minutes // 60}:{minutes % 60:02d}:{secs:02d}"
+
+
+BUDGETS = ("episodes", "max_hours", "max_cpu_hours")
+
+
+def spent_budgets(config: TrainConfig, spent: dict) -> list[str]:
+    """Which of ``BUDGETS`` the counters ``spent`` (``episodes``, ``wall_time_s``, ``cpu_time_s``,
+    as a checkpoint's ``state.json`` holds them) have reached, in that order."""
+    reached = {"episodes": spent["episodes"] >= config.episodes,
+               "max_hours": config.max_hours is not None and spent["wall_time_s"] >= config.max_hours * 3600,
+               "max_cpu_hours": (config.max_cpu_hours is not None
+                                 and spent.get("cpu_time_s", 0.0) >= config.max_cpu_hours * 3600)}
+    return [budget for budget in BUDGETS if reached[budget]]
+
+
+def budget_stop_reason(config: TrainConfig, spent: dict) -> str:
+    """``done.json``'s line for a run that ended on its own: the first budget spent."""
+    episodes, budget = spent["episodes"], config.episodes
+    at = f"at episode {episodes} of {budget}"
+    reached = spent_budgets(config, spent)
+    if "episodes" in reached:
+        return f"stopped by the episode budget: {episodes} of {budget} episodes in {hms(spent['wall_time_s'])}"
+    if "max_hours" in reached:
+        return f"stopped by the time limit (--max-hours {config.max_hours:g}) {at}, after {hms(spent['wall_time_s'])}"
+    if "max_cpu_hours" in reached:
+        return (f"stopped by the CPU-time limit (max_cpu_hours {config.max_cpu_hours:g}) {at}, "
+                f"after {spent['cpu_time_s'] / 3600:.2f} CPU h")
+    return f"stopped {at}"
+
+
+def spent_budget_note(run_dir: Path, config: TrainConfig, spent: dict) -> str | None:
+    """None while ``config`` leaves the run budget to train; else one line naming each budget
+    ``spent`` has reached and the option that raises it."""
+    reached = [_budget_and_its_option(budget, config, spent) for budget in spent_budgets(config, spent)]
+    if not reached:
+        return None
+    return (f"the run already reached {' and '.join(what for what, _ in reached)}; nothing trained; "
+            f"to continue: relmogen train --resume {run_dir} {' '.join(option for _, option in reached)}")
+
+
+def _budget_and_its_option(budget: str, config: TrainConfig, spent: dict) -> tuple[str, str]:
+    """A reached budget in words, and the option that raises it."""
+    if budget == "episodes":
+        return (f"its episode budget ({spent['episodes']} of {config.episodes} episodes)",
+                f"--episodes N (N > {spent['episodes']})")
+    if budget == "max_hours":
+        hours = spent["wall_time_s"] / 3600
+        return (f"its time limit (--max-hours {config.max_hours:g}; {hms(spent['wall_time_s'])} spent)",
+                f"--max-hours H (H > {hours:.3g}, a total from the run's start)")
+    cpu_hours = spent.get("cpu_time_s", 0.0) / 3600
+    return (f"its CPU-time limit (max_cpu_hours {config.max_cpu_hours:g}; {cpu_hours:.3g} CPU h spent)",
+            f"--set max_cpu_hours=H (H > {cpu_hours:.3g}, a total from the run's start)")
 
 
 class StopRequest:
@@ -423,25 +231,18 @@ class TrainingMonitor(BaseCallback):
         return not (self._budget_spent() or self.stop_request.requested)
 
     def _budget_spent(self) -> bool:
-        hours, cpu_hours = self.config.max_hours, self.config.max_cpu_hours
-        return (self.state["episodes"] >= self.config.episodes or (hours is not None and self.wall_time >= hours * 3600)
-                or (cpu_hours is not None and self.cpu_time >= cpu_hours * 3600))
+        return bool(spent_budgets(self.config, self._spent()))
+
+    def _spent(self) -> dict:
+        """The budget counters now (CPU time measured only when a CPU budget is set: it walks the process tree)."""
+        cpu_s = self.cpu_time if self.config.max_cpu_hours is not None else 0.0
+        return {"episodes": self.state["episodes"], "wall_time_s": self.wall_time, "cpu_time_s": cpu_s}
 
     def stop_reason(self) -> str:
         """One line naming what ended the run: a signal, or the first budget spent."""
-        episodes, budget = self.state["episodes"], self.config.episodes
-        at = f"at episode {episodes} of {budget}"
         if self.stop_request.requested:
-            return f"stopped by {self.stop_request.signal_name} {at}"
-        hours, cpu_hours = self.config.max_hours, self.config.max_cpu_hours
-        if episodes >= budget:
-            return f"stopped by the episode budget: {episodes} of {budget} episodes in {hms(self.wall_time)}"
-        if hours is not None and self.wall_time >= hours * 3600:
-            return f"stopped by the time limit (--max-hours {hours:g}) {at}, after {hms(self.wall_time)}"
-        if cpu_hours is not None and self.cpu_time >= cpu_hours * 3600:
-            return (f"stopped by the CPU-time limit (max_cpu_hours {cpu_hours:g}) {at}, "
-                    f"after {self.cpu_time / 3600:.2f} CPU h")
-        return f"stopped {at}"
+            return f"stopped by {self.stop_request.signal_name} at episode {self.state['episodes']} of {self.config.episodes}"
+        return budget_stop_reason(self.config, self._spent())
 
     def remaining_seconds(self) -> float | None:
         """Wall seconds left: the episodes still to run at this session's rate, or the time or
@@ -575,14 +376,6 @@ def check_trainable(config: TrainConfig) -> None:
             known_name(getattr(config.env, key), BACKENDS, f"env.{key}")
 
 
-def run_config_file(run_dir: Path) -> Path:
-    """``run_dir/config.yaml``; a ValueError when ``run_dir`` is not a run directory."""
-    path = Path(run_dir) / "config.yaml"
-    if not path.is_file():
-        raise ValueError(f"{run_dir} is not a run directory (no config.yaml); give a folder made by relmogen train")
-    return path
-
-
 def new_run_dir(out: Path, config: TrainConfig) -> Path:
     stamp = time.strftime("%Y%m%d-%H%M%S")
     run_dir = Path(out) / f"{config.task}__{config.algo}__{config.seed}__{stamp}"
@@ -616,19 +409,43 @@ def train(config: TrainConfig, out: Path = Path("runs"), quiet: bool = False, in
     return _learn(run_dir, config, model, state, quiet)
 
 
+def resumed_config(run_dir: Path, episodes: int | None = None, max_hours: float | None = None,
+                   overrides: list[str] = ()) -> tuple[TrainConfig, dict, dict]:
+    """The run's configuration with a resume's changes: the config, the changed algorithm
+    parameters (``override_config``) and the new budgets given as arguments."""
+    config, changed = override_config(read_config(run_config_file(run_dir)), list(overrides))
+    updates = {key: value for key, value in (("episodes", episodes), ("max_hours", max_hours)) if value is not None}
+    return config.model_copy(update=updates), changed, updates
+
+
+def resume_budget_note(run_dir: Path, episodes: int | None = None, max_hours: float | None = None,
+                       overrides: list[str] = ()) -> str | None:
+    """What ``resume`` with these arguments would say instead of training: one line naming the
+    budgets the run already reached and how to raise them; None when it would train."""
+    checkpoint = latest_checkpoint(Path(run_dir))
+    if checkpoint is None:
+        return None
+    state = checkpoint_state(checkpoint)
+    return spent_budget_note(Path(run_dir), resumed_config(Path(run_dir), episodes, max_hours, overrides)[0], state)
+
+
 def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
            max_hours: float | None = None, overrides: list[str] = ()) -> Path:
     """Continue a run from its latest checkpoint, optionally with a new episode budget, a new
     total wall-clock budget (hours counted from the run's start, across resumes; a total CPU
-    budget through ``max_cpu_hours=H`` in ``overrides``) or changed learning parameters (``overrides``, ``--set`` syntax, see ``override_config``). Every
-    change is appended to ``resumes.jsonl`` with the episode it took effect at."""
+    budget through ``max_cpu_hours=H`` in ``overrides``) or changed learning parameters
+    (``overrides``, ``--set`` syntax, see ``override_config``). Every change is appended to
+    ``resumes.jsonl`` with the episode it took effect at. A run whose latest checkpoint already
+    reached the (new) budget is left as it is (``resume_budget_note`` says why); its ``done.json``
+    is written if a kill came between that checkpoint and it."""
     run_dir = Path(run_dir)
-    config, changed = override_config(read_config(run_config_file(run_dir)), list(overrides))
-    (run_dir / "done.json").unlink(missing_ok=True)  # running again: not done until _learn returns
-    updates = {key: value for key, value in (("episodes", episodes), ("max_hours", max_hours)) if value is not None}
-    config = config.model_copy(update=updates)
+    config, changed, updates = resumed_config(run_dir, episodes, max_hours, overrides)
     checkpoint = latest_checkpoint(run_dir)
-    state = json.loads((checkpoint / "state.json").read_text()) if checkpoint else None
+    state = checkpoint_state(checkpoint) if checkpoint else None
+    if state is not None and spent_budgets(config, state):
+        _write_done(run_dir, state, budget_stop_reason(config, state), keep=True)
+        return run_dir
+    (run_dir / "done.json").unlink(missing_ok=True)  # running again: not done until _learn returns
     if updates or overrides:
         save_config(config, run_dir / "config.yaml")
         _log_resume(run_dir, state, updates, list(overrides))
@@ -639,18 +456,31 @@ def resume(run_dir: Path, quiet: bool = False, episodes: int | None = None,
         if init is not None:  # from the same weights (and replay) as the first start
             initialise_from(model, config, Path(init["checkpoint"]), Path(init["run"]), init["replay"] is not None)
     else:
-        th.set_num_threads(config.run.torch_threads)  # as build_model does: extra threads thrash a busy CPU
-        model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device),
-                                         **changed)  # SB3 rebuilds schedules and buffer from these
-        replay = latest_replay(run_dir)
-        if replay is not None:
-            model.load_replay_buffer(replay)
-        else:  # killed before its first save, or carried to another machine without it
-            refill_before_learning(run_dir, model, config, state)
-        resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
+        model = _resumed_model(run_dir, config, checkpoint, changed, env, state)
     add_missing_demonstrations(run_dir, config, model, state, quiet)
     _truncate_episode_log(run_dir / "episodes.csv", state["episodes"])
     return _learn(run_dir, config, model, state, quiet)
+
+
+def _resumed_model(run_dir: Path, config: TrainConfig, checkpoint: Path, changed: dict, env, state: dict):
+    """The checkpoint's model on ``env`` with the changed parameters, and the run's latest replay."""
+    th.set_num_threads(config.run.torch_threads)  # as build_model does: extra threads thrash a busy CPU
+    model = model_class(config).load(checkpoint / "model.zip", env=env, device=resolve_device(config.device),
+                                     **changed)  # SB3 rebuilds schedules and buffer from these
+    replay = latest_replay(run_dir)
+    if replay is not None:
+        model.load_replay_buffer(replay)
+    else:  # killed before its first save, or carried to another machine without it
+        refill_before_learning(run_dir, model, config, state)
+    resize_replay_buffer(model.replay_buffer, config.algo_params.buffer_size)
+    return model
+
+
+def _write_done(run_dir: Path, state: dict, reason: str, keep: bool = False) -> None:
+    """``done.json``: the budget spent and what stopped the run (an existing one stays with ``keep``)."""
+    done = Path(run_dir) / "done.json"
+    if not (keep and done.is_file()):
+        done.write_text(json.dumps(dict(state, stop_reason=reason)))
 
 
 DEMO_LOG = "demonstrations.jsonl"
@@ -739,7 +569,7 @@ def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) 
                 model.learn(total_timesteps=10**12, callback=monitor, reset_num_timesteps=state["timesteps"] == 0,
                             progress_bar=False)
             stopped = monitor.stop_request.requested
-            monitor.checkpoint(with_replay=stopped)  # a stop asked for keeps the replay too
+            monitor.checkpoint(with_replay=True)  # every end keeps the replay: --resume loses nothing
             if stopped:
                 raise TrainingStopped(run_dir, state["episodes"], monitor.stop_reason())
     except EnvWorkerError as error:  # a worker died or hung: keep what was learned, then report it
@@ -750,7 +580,7 @@ def _learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool) 
     finally:
         monitor.close()
         model.get_env().close()
-    (run_dir / "done.json").write_text(json.dumps(dict(state, stop_reason=monitor.stop_reason())))
+    _write_done(run_dir, state, monitor.stop_reason())
     return run_dir
 
 

@@ -2,7 +2,7 @@
 
 Adding a robot means adding a folder with a URDF and a ``spec.yaml``; no Python changes. Its
 measured arm reachability map (``reachability.npz``, for ``env.reach_mask=measured``) is written
-there by ``python -m relmogen.robots.reachability <name>``.
+there by ``python -m relmogen.motion_generation.reachability <name>``.
 """
 
 from __future__ import annotations

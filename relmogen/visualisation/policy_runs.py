@@ -25,7 +25,7 @@ class PolicyRun:
 
     @property
     def checkpoint_episode(self) -> int | None:
-        from relmogen.experiments.train import checkpoint_state
+        from relmogen.experiments.checkpoints import checkpoint_state
 
         return checkpoint_state(self.checkpoint).get("episodes")
 
@@ -62,7 +62,7 @@ def open_policy_run(path: Path, checkpoint: str = "latest", device: str = "auto"
     acting in its own task; ``arm_collision=None`` checks arm plans as during its training;
     ``robot`` puts the policy on another embodiment (``evaluate.with_robot``)."""
     from relmogen.experiments.evaluate import load_checkpoint, policy_act, resolve_checkpoint, with_robot
-    from relmogen.experiments.train import env_kwargs
+    from relmogen.experiments.environments import env_kwargs
 
     folder, run_dir = resolve_checkpoint(Path(path), checkpoint)
     model, config = load_checkpoint(folder, run_dir, device)
@@ -99,8 +99,8 @@ def open_exported_run(folder: Path, checkpoint: str = "latest", device: str = "a
     """An exported actor's folder (``shipped.is_exported_policy``) loaded by ``open_shipped``, as
     ``relmogen demo`` does, arm collision checking on; it holds one greedy model on its own robot,
     so another ``checkpoint``, ``stochastic`` or ``robot`` is refused."""
-    from relmogen.agents.shipped import open_shipped
-    from relmogen.experiments.train import resolve_device
+    from relmogen.experiments.shipped import open_shipped
+    from relmogen.experiments.models import resolve_device
 
     given = {"--checkpoint": checkpoint != "latest", "--stochastic": stochastic, "--robot": robot is not None}
     refused = [option for option, is_given in given.items() if is_given]

@@ -106,7 +106,8 @@ def q_map_state(model, env: RelmogenEnv, obs: dict, step: int) -> QMapState:
     action = int(model.predict(obs, deterministic=True, masks=masks)[0])
     choice = control.decode(action)
     heading = control.push_heading(*choice[1:]) if choice[0] == "arm" else None
-    return QMapState(obs["rgb"], obs["local_map"], maps, masks, tuple(model.subgoal_parts), choice, step, heading)
+    sensed_map = obs["local_map"][..., :control.map_channels]  # without ``subgoal_feedback``'s channels
+    return QMapState(obs["rgb"], sensed_map, maps, masks, tuple(model.subgoal_parts), choice, step, heading)
 
 
 def _value_range(values: np.ndarray) -> tuple[float, float] | None:
@@ -328,7 +329,8 @@ def q_map_figures_for_checkpoint(path: Path, out_dir: Path, task: str | None = N
     """``relmogen viz qmap``: load a relmogen-d run or checkpoint and draw its Q maps on ``task``
     (default: the task it was trained on), arm collision checking on as at evaluation."""
     from relmogen.experiments.evaluate import load_checkpoint, resolve_checkpoint
-    from relmogen.experiments.train import checkpoint_state, env_kwargs
+    from relmogen.experiments.checkpoints import checkpoint_state
+    from relmogen.experiments.environments import env_kwargs
 
     folder, run_dir = resolve_checkpoint(Path(path))
     model, config = load_checkpoint(folder, run_dir, device)

@@ -31,12 +31,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from relmogen.agents.shipped import is_exported_policy  # noqa: E402
+from relmogen.experiments.shipped import is_exported_policy  # noqa: E402
 from relmogen.experiments.rollout import FrameRecorder  # noqa: E402
 from relmogen.visualisation.policy_runs import PolicyRun, open_exported_run, open_policy_run  # noqa: E402
 from relmogen.visualisation.scene_map import (door_distances, draw_floor_plan, draw_goals, task_goal,  # noqa: E402
                                               zoom_to)
-from relmogen.visualisation.video import chosen_subgoal  # noqa: E402
+from relmogen.experiments.video import chosen_subgoal  # noqa: E402
 
 SUBGOAL_ALGOS = ("relmogen-r", "relmogen-d")
 FOUND_COLOUR, NO_PLAN_COLOUR = "tab:green", "tab:red"

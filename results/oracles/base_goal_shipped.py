@@ -12,7 +12,7 @@ from pathlib import Path
 
 import yaml
 
-from relmogen.agents.shipped import open_shipped, shipped_policy_dir
+from relmogen.experiments.shipped import open_shipped, shipped_policy_dir
 from relmogen.experiments.rollout import run_episode
 
 base_goal, episodes, first_seed = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])

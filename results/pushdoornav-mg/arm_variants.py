@@ -14,7 +14,7 @@ import sys
 import time
 from dataclasses import replace
 
-from relmogen.agents.shipped import open_shipped, shipped_policy_dir
+from relmogen.experiments.shipped import open_shipped, shipped_policy_dir
 from relmogen.experiments.rollout import run_episode
 from relmogen.motion_generation import arm as arm_module
 from relmogen.motion_generation import generator as generator_module

@@ -42,6 +42,52 @@ def test_bad_configuration_is_refused_with_a_reason(kwargs, message):
         resolve_config(**args)
 
 
+@pytest.mark.parametrize("assignment,message", [
+    ("algo.batchsize=32", "--set algo.batchsize=32: unknown key algo.batchsize; did you mean algo.batch_size?"),
+    ("env.imagesize=64", "--set env.imagesize=64: unknown key env.imagesize; did you mean env.image_size?"),
+    ("run.evl_every=1", "--set run.evl_every=1: unknown key run.evl_every; did you mean run.eval_every_episodes?"),
+    ("max_cpu_hour=1", "--set max_cpu_hour=1: unknown key max_cpu_hour; did you mean max_cpu_hours? (valid: task,"),
+    ("evn.image_size=64", "--set evn.image_size=64: unknown section evn; did you mean env? (the sections: env,"),
+    ("algo.zzzz=1", "--set algo.zzzz=1: unknown key algo.zzzz"),
+])
+def test_an_unknown_set_key_is_one_line_with_the_nearest_valid_key(assignment, message):
+    for refused in (lambda: resolve_config("PointNav", "relmogen-r", preset="tiny", overrides=[assignment]),
+                    lambda: override_config(resolve_config("PointNav", "relmogen-r", preset="tiny"), [assignment])):
+        with pytest.raises(ValueError) as error:
+            refused()
+        assert str(error.value).startswith(message) and "\n" not in str(error.value)
+
+
+def test_invalid_values_are_one_line_naming_each_key_as_set_spells_it():
+    with pytest.raises(ValueError) as error:
+        resolve_config("PointNav", "relmogen-r", preset="tiny", overrides=["env.image_size=8", "algo.gamma=2"])
+    assert str(error.value) == ("invalid configuration: env.image_size: Input should be greater than or equal to 16; "
+                                "algo.gamma: Input should be less than or equal to 1")
+    with pytest.raises(ValueError, match=r"^invalid configuration: algo.qmap_skip and algo.qmap_unet are two Q-map "
+                                         r"heads: choose one$"):
+        resolve_config("PointNav", "relmogen-d", preset="tiny", overrides=["algo.qmap_skip=true", "algo.qmap_unet=true"])
+
+
+@pytest.mark.parametrize("content,message", [
+    ("algos:\n  relmogen_r:\n    batch_size: 32\n",
+     "unknown algorithm block 'relmogen_r' under algos; did you mean relmogen-r? (the algorithms: relmogen-r,"),
+    ("algos:\n  relmogen-r:\n    batchsize: 32\n",
+     "unknown key algos.relmogen-r.batchsize; did you mean algos.relmogen-r.batch_size?"),
+    ("algos:\n  sac: {batch_size: 32}\n  relmogen-r:\n    batchsize: 32\n", "algos.relmogen-r.batchsize"),
+    ("env:\n  imagesize: 64\n", "unknown key env.imagesize; did you mean env.image_size?"),
+    ("run:\n  evl_every: 1\n", "unknown key run.evl_every; did you mean run.eval_every_episodes?"),
+    ("algo:\n  sac: {}\n", "unknown section 'algo'; did you mean algos? (sections env, algos, run;"),
+    ("env: 64\n", "env must be a mapping of settings, not int"),
+])
+def test_a_preset_with_an_unknown_block_or_key_is_one_line_with_the_nearest_valid_one(tmp_path, content, message):
+    """Whichever algorithm is trained: a misspelt block of another one is refused too, not ignored."""
+    (tmp_path / "typo.yaml").write_text(content)
+    with pytest.raises(ValueError) as error:
+        resolve_config("PointNav", "sac", preset=str(tmp_path / "typo.yaml"))
+    assert str(error.value).startswith(f"preset file {tmp_path / 'typo.yaml'}: ")
+    assert message in str(error.value) and "\n" not in str(error.value)
+
+
 def test_a_resumed_run_may_change_its_learning_schedule_and_reports_what_changed():
     config = resolve_config("PointNav", "relmogen-d", preset="cpu")
     updated, changed = override_config(config, ["algo.exploration_final_eps=0.2", "algo.buffer_size=50000",

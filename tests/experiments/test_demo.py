@@ -6,7 +6,7 @@ import sys
 
 import imageio.v2 as imageio
 
-from relmogen.agents.shipped import POLICIES_DIR, shipped_policy_dir
+from relmogen.experiments.shipped import POLICIES_DIR, shipped_policy_dir
 from relmogen.experiments.demo import DEMO_POLICY
 
 
@@ -34,7 +34,7 @@ def test_shipped_policy_is_small_and_unknown_names_list_the_known_ones():
 
 def test_demo_video_records_the_first_episode_annotated_as_mp4(tmp_path):
     from relmogen.experiments.demo import run_demo
-    from relmogen.visualisation.video import VIDEO_SIZE
+    from relmogen.experiments.video import VIDEO_SIZE
 
     metrics = run_demo(episodes=1, out_dir=tmp_path / "plain", quiet=True, video=tmp_path / "demo.mp4")
     assert metrics["video"] == str(tmp_path / "demo.mp4") and "gif" not in metrics

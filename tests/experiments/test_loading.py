@@ -9,7 +9,7 @@ import pytest
 
 import relmogen
 import relmogen.experiments.evaluate as evaluate
-from relmogen.agents.shipped import shipped_policy_dir
+from relmogen.experiments.shipped import shipped_policy_dir
 from relmogen.experiments.config import resolve_config
 from relmogen.experiments.train import latest_checkpoint, train
 

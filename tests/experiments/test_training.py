@@ -23,7 +23,7 @@ from stable_baselines3.common.save_util import load_from_pkl
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 from relmogen.agents.dqn import RelmogenDQN
-from relmogen.agents.shipped import export_actor, open_shipped
+from relmogen.experiments.shipped import export_actor, open_shipped
 from relmogen.cli import main
 from relmogen.experiments.config import load_preset, read_config, resolve_config
 from relmogen.experiments.env_workers import WORKER_ERRORS, EnvWorkerError, GuardedSubprocVecEnv, last_logged_error
@@ -33,7 +33,7 @@ from relmogen.experiments.train import (EPISODE_FIELDS, _truncate_episode_log, b
                                        evaluation_rank, latest_checkpoint, latest_replay, make_training_env,
                                        read_resume_log, resume, stop_reason, train, worker_env, TrainingMonitor)
 from relmogen.visualisation.qmap import q_map_figures_for_checkpoint
-from relmogen.visualisation.video import VIDEO_SIZE
+from relmogen.experiments.video import VIDEO_SIZE
 
 
 def episodes_in(run_dir: Path) -> list[int]:
@@ -515,13 +515,73 @@ def test_a_cpu_time_budget_stops_the_run_once_trainer_and_workers_spent_it(tmp_p
     assert read_config(run_dir / "config.yaml").max_cpu_hours == pytest.approx(budget_s / 3600)
 
 
-def test_a_time_limit_stops_the_run_and_the_stop_reason_names_it(tmp_path):
+def test_a_time_limit_stops_the_run_and_the_stop_reason_names_it(tmp_path, capsys):
     config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=1000, max_hours=2 / 3600,
                             overrides=["run.eval_every_episodes=1000"])
     run_dir = train(config, tmp_path, quiet=True)
     episodes = json.loads((run_dir / "done.json").read_text())["episodes"]
     assert re.fullmatch(rf"stopped by the time limit \(--max-hours {2 / 3600:g}\) at episode {episodes} of 1000, "
                         r"after 0:00:0[2-9]", stop_reason(run_dir)), stop_reason(run_dir)
+    # resumed as it was: one line naming the limit and how to raise it, nothing trained
+    assert main(["train", "--resume", str(run_dir), "--quiet"]) == 0
+    (line,) = capsys.readouterr().err.splitlines()
+    assert f"its time limit (--max-hours {2 / 3600:g}; 0:00:0" in line and line.endswith(
+        f"--resume {run_dir} --max-hours H (H > {episode_state(run_dir)['wall_time_s'] / 3600:.3g}, a total from "
+        "the run's start)")
+    assert episodes_in(run_dir) == list(range(1, episodes + 1))
+    # raised: it continues for the time added
+    assert main(["train", "--resume", str(run_dir), "--quiet", "--max-hours", str(4 / 3600)]) == 0
+    assert capsys.readouterr().err.startswith("relmogen: stopped by the time limit (--max-hours")
+    assert len(episodes_in(run_dir)) > episodes and episodes_in(run_dir) == list(range(1, len(episodes_in(run_dir)) + 1))
+
+
+def episode_state(run_dir: Path) -> dict:
+    return json.loads((latest_checkpoint(run_dir) / "state.json").read_text())
+
+
+def test_resuming_a_run_that_spent_its_budget_names_the_budget_and_trains_only_when_it_is_raised(tmp_path, capsys):
+    assert main(["train", "--task", "PointNav", "--algo", "relmogen-r", "--preset", "tiny", "--episodes", "2",
+                 "--out", str(tmp_path), "--quiet", "--set", "run.eval_every_episodes=1000"]) == 0
+    run_dir = Path(capsys.readouterr().out.strip())
+    files = {path: path.stat().st_mtime_ns for path in run_dir.rglob("*") if path.is_file()}
+    hints = {(): "its episode budget (2 of 2 episodes); nothing trained; to continue: "
+                 f"relmogen train --resume {run_dir} --episodes N (N > 2)",
+             ("--set", "max_cpu_hours=1e-6"): "and its CPU-time limit (max_cpu_hours 1e-06; ",
+             ("--max-hours", "1e-6"): "and its time limit (--max-hours 1e-06; 0:00:0"}
+    for args, hint in hints.items():
+        assert main(["train", "--resume", str(run_dir), "--quiet", *args]) == 0
+        out, err = capsys.readouterr()
+        (line,) = err.splitlines()
+        assert line.startswith("relmogen: the run already reached its episode budget") and hint in line, line
+        assert out == f"{run_dir}\n"
+    assert "--set max_cpu_hours=H (H > " in line or "--max-hours H (H > " in line
+    # nothing was trained, written or logged: not the config, not resumes.jsonl, not done.json
+    assert {path: path.stat().st_mtime_ns for path in run_dir.rglob("*") if path.is_file()} == files
+    assert main(["train", "--resume", str(run_dir), "--quiet", "--episodes", "3"]) == 0
+    assert capsys.readouterr().err.startswith("relmogen: stopped by the episode budget: 3 of 3 episodes")
+    assert episodes_in(run_dir) == [1, 2, 3]
+
+
+def test_a_run_killed_between_its_last_checkpoint_and_done_json_is_finished_by_resume(tmp_path):
+    config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=2,
+                            overrides=["run.eval_every_episodes=1000"])
+    run_dir = train(config, tmp_path, quiet=True)
+    done = json.loads((run_dir / "done.json").read_text())
+    (run_dir / "done.json").unlink()
+    assert resume(run_dir, quiet=True) == run_dir
+    assert json.loads((run_dir / "done.json").read_text()) == dict(episode_state(run_dir),
+                                                                   stop_reason=done["stop_reason"])
+
+
+def test_every_end_of_training_saves_the_replay_with_the_model(tmp_path):
+    config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=3,
+                            overrides=["run.eval_every_episodes=1000", "run.replay_every_episodes=100"])
+    run_dir = train(config, tmp_path, quiet=True)
+    replay_folder = latest_replay(run_dir).parent
+    assert replay_folder.name == "replay_0000003" and latest_checkpoint(run_dir).name == "episode_0000003"
+    assert json.loads((replay_folder / "state.json").read_text()) == episode_state(run_dir)
+    # every transition but the last step's: SB3 stores a step's transition after the callback that stopped it
+    assert load_from_pkl(latest_replay(run_dir)).size() == episode_state(run_dir)["timesteps"] - 1
 
 
 @pytest.fixture

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from relmogen.motion_generation.ik import ArmIK
-from relmogen.robots.reachability import (ReachabilityMap, gripper_positions, load_reachability, map_path,
-                                          measure_reachability, world_to_base)
+from relmogen.motion_generation.reachability import gripper_positions, measure_reachability
+from relmogen.robots.reachability import ReachabilityMap, load_reachability, map_path, world_to_base
 from relmogen.robots.robot import Robot
 from relmogen.robots.spec import available_robots, load_spec
 
@@ -41,7 +41,7 @@ def test_measured_map_holds_every_sampled_position_and_its_tolerance():
 def test_missing_map_names_the_command(monkeypatch, tmp_path):
     spec = load_spec("fetch")
     monkeypatch.setattr("relmogen.robots.reachability.map_path", lambda _: tmp_path / "none.npz")
-    with pytest.raises(FileNotFoundError, match="python -m relmogen.robots.reachability fetch"):
+    with pytest.raises(FileNotFoundError, match="python -m relmogen.motion_generation.reachability fetch"):
         load_reachability(spec)
 
 

@@ -15,7 +15,8 @@ from relmogen.agents.oracles.base import world_to_pixel
 from relmogen.envs.subgoal_controls import PUSH_BINS, Q_DOWNSAMPLE, YAW_BINS
 from relmogen.experiments.config import resolve_config
 from relmogen.simulation.occupancy import OCCUPIED, UNKNOWN
-from relmogen.visualisation.qmap import QMapState, figure_title, q_map_figure, q_map_figures, q_map_state
+from relmogen.visualisation.qmap import (QMapState, figure_title, legend_handles, q_map_figure, q_map_figures,
+                                         q_map_state)
 
 SIZE = 64
 
@@ -174,3 +175,23 @@ def test_the_figure_title_names_task_seed_and_training_episodes():
         "ButtonDoorNav: Q maps of relmogen-d (seed 2) after 2,019 training episodes"
     other = config.model_copy(update={"task": "PushDoorNav"})
     assert figure_title(other, None, "ButtonDoorNav") == "PushDoorNav: Q maps of relmogen-d (seed 2) on ButtonDoorNav"
+
+
+def test_the_drawn_local_map_leaves_out_the_subgoal_feedback_channels():
+    """ArrangeKitchenMM has no goal marks: its base feedback channel must not be drawn as them."""
+    def kitchen():
+        return RelmogenEnv(task="ArrangeKitchenMM", control="subgoal-d", image_size=SIZE, episode_steps=4,
+                           subgoal_feedback=True)
+    threads = th.get_num_threads()
+    th.set_num_threads(1)
+    env, model = kitchen(), RelmogenDQN(env=DummyVecEnv([kitchen]), buffer_size=16, batch_size=4, learning_starts=0,
+                                        seed=0, policy_kwargs={"widths": (8, 16, 16, 32), "head_width": 32})
+    obs, _ = env.reset(seed=1)
+    obs, *_ = env.step(env.control.encode("base", 0, 0, 0))  # a no-op at the map's corner, drawn in feedback
+    assert obs["local_map"].shape == (SIZE, SIZE, 3) and obs["local_map"][..., 1].any()
+    state = q_map_state(model, env, obs, step=1)
+    np.testing.assert_array_equal(state.local_map, obs["local_map"][..., :1])
+    assert "goal and path to it" not in [handle.get_label() for handle in legend_handles(state)]
+    env.close()
+    model.env.close()
+    th.set_num_threads(threads)

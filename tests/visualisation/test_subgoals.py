@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from relmogen.agents.shipped import shipped_policy_dir
+from relmogen.experiments.shipped import shipped_policy_dir
 from relmogen.cli import main
 from relmogen.experiments.demo import DEMO_POLICY
 from relmogen.scenes.geometry import Doorway

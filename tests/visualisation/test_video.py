@@ -6,9 +6,9 @@ import pytest
 
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.rollout import run_episode
-from relmogen.visualisation.video import (ARM_COLOUR, GOAL_COLOUR, INSET_SIZE, MARGIN, VIDEO_SIZE,
+from relmogen.experiments.video import (ARM_COLOUR, GOAL_COLOUR, INSET_SIZE, MARGIN, VIDEO_SIZE,
                                           AnnotatedRecorder, chosen_subgoal)
-from relmogen.visualisation.views import check_animation_path, overhead_camera, write_animation
+from relmogen.simulation.views import check_animation_path, overhead_camera, write_animation
 
 
 def has_colour(image: np.ndarray, colour) -> bool:

@@ -74,7 +74,7 @@ def _is_input_scaling(key: str) -> bool:
 def exported_model(folder: Path, config: TrainConfig, env: RelmogenEnv, device: str = "cpu"):
     """The SAC-family model ``config`` builds on ``env``'s spaces with the actor of ``folder``
     loaded (its critics untrained, a one-transition replay)."""
-    from relmogen.experiments.train import build_model  # the network training builds
+    from relmogen.experiments.models import build_model  # the network training builds
 
     small = config.model_copy(update={"device": device, "algo_params": config.algo_params.model_copy(
         update={"buffer_size": 1, "learning_starts": 0})})
@@ -101,7 +101,7 @@ def open_shipped(folder: Path, arm_collision: bool = True, render_mode: str | No
                  device: str = "cpu") -> tuple[RelmogenEnv, ShippedPolicy]:
     """The environment the policy was trained for (arm collision checking on, as at
     evaluation) and the policy, its network rebuilt from the config and the weights loaded."""
-    from relmogen.experiments.train import env_kwargs
+    from relmogen.experiments.environments import env_kwargs
 
     folder = Path(folder)
     config = read_config(folder / CONFIG_FILE)

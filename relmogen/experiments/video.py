@@ -20,7 +20,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from relmogen.experiments.rollout import FrameRecorder
 from relmogen.simulation.frames import to_world
-from relmogen.visualisation.views import ViewCamera, overhead_camera, render
+from relmogen.simulation.views import ViewCamera, overhead_camera, render
 
 VIDEO_SIZE = (512, 384)  # width, height: multiples of 16, as H.264 wants
 VIDEO_FPS = 5
