@@ -19,8 +19,8 @@ from pathlib import Path
 
 from relmogen.experiments.recipes import (ExtraEvaluation, Recipe, file_sha256, load_recipe, recipe_path,
                                           resolve_stages, setting_assignment)
-from relmogen.experiments.sweep import (MANIFEST, RUNS, _live, _manifest_updates, make_backend, read_manifest,
-                                        run_key, write_manifest)
+from relmogen.experiments.sweep import (MANIFEST, RUNS, _live, _manifest_updates, make_backend, mark_started,
+                                        read_manifest, run_key, write_manifest)
 
 MANIFEST_KIND = "reproduce"
 
@@ -31,6 +31,7 @@ def execute_seed(out: str, recipe_file: str, seed: int) -> dict:
     out = Path(out)
     recipe = load_recipe(recipe_file)
     configs = resolve_stages(recipe, seed)
+    place = mark_started(out, run_key(recipe.task, recipe.algo, seed))  # the manifest's state and placements
     run_dirs: dict[str, Path] = {}
     for name, stage in recipe.stages.items():
         if stage.continue_ is not None:
@@ -39,7 +40,7 @@ def execute_seed(out: str, recipe_file: str, seed: int) -> dict:
             source = run_dirs[stage.init_from] if stage.init_from else None
             run_dirs[name] = start_stage(out / RUNS / name, configs[name], source, stage.init_replay)
     stages = {name: str(path.relative_to(out)) for name, path in run_dirs.items()}
-    return {"run_dir": stages[recipe.last_stage], "stages": stages}
+    return {"run_dir": stages[recipe.last_stage], "stages": stages, "placement": place}
 
 
 def stage_run_dir(folder: Path, config) -> Path | None:

@@ -4,7 +4,9 @@ Each run is a run directory made exactly as ``relmogen train`` makes it (``train
 ``resume`` of ``relmogen.experiments.train``), under ``DIR/runs/``. ``DIR/sweep.json`` (the
 manifest, written atomically, by the sweep's driver only) holds the sweep's settings and, per run
 key ``<Task>__<algo>__<seed>``, its run directory (relative to ``DIR``) and state: ``pending``,
-``running``, ``done`` or ``failed`` (with the error). ``--resume`` skips ``done`` runs and
+``running``, ``done`` or ``failed`` (with the error), and ``placements``: where each attempt ran
+(host, pid and, on Ray, the node id; ``DIR/.status/<key>.json`` holds the latest, written by the
+run's process when it starts). ``--resume`` skips ``done`` runs and
 continues every other one from its latest checkpoint (``relmogen train --resume`` semantics: at
 most one checkpoint interval lost).
 
@@ -30,6 +32,7 @@ import multiprocessing as mp
 import os
 import signal
 import socket
+import sys
 import time
 import traceback
 from collections import defaultdict
@@ -39,7 +42,7 @@ from typing import Callable
 
 MANIFEST = "sweep.json"
 RUNS = "runs"
-STATUS = ".status"  # DIR/.status/<key>.json: written by a run's process when it starts (host, pid)
+STATUS = ".status"  # DIR/.status/<key>.json: written by a run's process when it starts (placement())
 STATES = ("pending", "running", "done", "failed")
 EVAL_SEED = 100_000
 EVAL_EPISODES = 100
@@ -128,21 +131,39 @@ def find_run_dir(out: Path, key: str, remove_empty: bool = False) -> Path | None
 
 
 # ------------------------------------------------------------------------ one run
+def placement() -> dict:
+    """Where this process runs: host, pid, start time and, in a Ray task, the Ray node id."""
+    place = {"host": socket.gethostname(), "pid": os.getpid(), "time": time.time(), "node_id": None}
+    ray = sys.modules.get("ray")  # not imported here: the serial backend never imports Ray
+    if ray is not None and ray.is_initialized():
+        place["node_id"] = ray.get_runtime_context().get_node_id()
+    return place
+
+
+def mark_started(out: Path, key: str) -> dict:
+    """Writes ``out/.status/<key>.json`` (atomically: the driver polls it) and returns the placement."""
+    place = placement()
+    (out / STATUS).mkdir(exist_ok=True)
+    path = out / STATUS / f"{key}.json"
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(place))
+    os.replace(tmp, path)
+    return place
+
+
 def execute_run(out: str, key: str, spec: dict) -> dict:
     """Train run ``key`` of the sweep in ``out``, or continue it from its latest checkpoint when
     its directory exists (a resumed sweep, or a retried Ray task). Runs in the worker process."""
     from relmogen.experiments.train import resume, train
 
     out = Path(out)
-    (out / STATUS).mkdir(exist_ok=True)
-    (out / STATUS / f"{key}.json").write_text(json.dumps({"host": socket.gethostname(), "pid": os.getpid(),
-                                                           "time": time.time()}))
+    place = mark_started(out, key)
     run_dir = find_run_dir(out, key, remove_empty=True)
     if run_dir is None:
         run_dir = train(SweepSpec(**spec).config(*split_key(key)), out / RUNS, quiet=True)
     elif not (run_dir / "done.json").is_file():
         run_dir = resume(run_dir, quiet=True)
-    return {"run_dir": str(run_dir.relative_to(out))}
+    return {"run_dir": str(run_dir.relative_to(out)), "placement": place}
 
 
 def evaluate_run(run_dir: str, episodes: int) -> dict:
@@ -377,21 +398,36 @@ def _manifest_updates(out: Path, manifest: dict, serial: bool):
         submitted[key] = time.time()
         write_manifest(out, manifest)
 
+    def place(key: str, found: dict | None) -> bool:
+        """Appends ``found`` (a ``placement()``) to the run's placements unless it is there already."""
+        places = manifest["runs"][key].setdefault("placements", [])
+        if found is None or found["time"] < submitted.get(key, 0) - 1 or found in places:
+            return False
+        places.append(found)
+        return True
+
+    def status_of(key: str) -> dict | None:
+        try:
+            return json.loads((out / STATUS / f"{key}.json").read_text())
+        except (OSError, ValueError):
+            return None
+
     def on_finish(key: str, result: dict | None, error: str | None) -> None:
         entry = manifest["runs"][key]
+        place(key, status_of(key))
         if error is None:
+            place(key, result.get("placement"))
             entry.update(state="done", run_dir=result["run_dir"], error=None)
         else:
             run_dir = find_run_dir(out, key)
             entry.update(state="failed", error=error, run_dir=str(run_dir.relative_to(out)) if run_dir else None)
         write_manifest(out, manifest)
 
-    def poll() -> None:  # Ray: a task has started once its process wrote its status file
+    def poll() -> None:  # Ray: a task (or its retry) has started once its process wrote its status file
         changed = False
-        for key, since in submitted.items():
+        for key in submitted:
             entry = manifest["runs"][key]
-            status = out / STATUS / f"{key}.json"
-            if entry["state"] == "pending" and status.is_file() and status.stat().st_mtime >= since - 1:
+            if entry["state"] in ("pending", "running") and place(key, status_of(key)):
                 entry["state"], changed = "running", True
             if entry["run_dir"] is None and entry["state"] == "running":
                 run_dir = find_run_dir(out, key)
