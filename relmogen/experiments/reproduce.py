@@ -19,7 +19,7 @@ from pathlib import Path
 
 from relmogen.experiments.recipes import (ExtraEvaluation, Recipe, file_sha256, load_recipe, recipe_path,
                                           resolve_stages, setting_assignment)
-from relmogen.experiments.sweep import (MANIFEST, RUNS, _live, _manifest_updates, make_backend, mark_started,
+from relmogen.experiments.sweep import (MANIFEST, RUNS, LiveTable, manifest_updates, make_backend, mark_started,
                                         read_manifest, run_key, write_manifest)
 
 MANIFEST_KIND = "reproduce"
@@ -235,8 +235,8 @@ def run_reproduce(recipe_arg: str, out: Path, seeds: list[int] | None = None, re
         todo = [key for key, entry in manifest["runs"].items() if entry["state"] != "done"]
         jobs = [(key, execute_seed, (str(out), manifest["recipe"]["path"], int(key.rsplit("__", 1)[1])))
                 for key in todo]
-        on_start, on_finish, poll = _manifest_updates(out, manifest, serial=executor.name == "serial")
-        with _live(out, manifest, quiet):
+        on_start, on_finish, poll = manifest_updates(out, manifest, serial=executor.name == "serial")
+        with LiveTable(out, manifest, quiet):
             executor.run(jobs, on_start, record_stages(manifest, on_finish),
                          follow_stages(out, manifest, recipe, poll))
         evaluate_runs(out, manifest, recipe, executor, quiet)

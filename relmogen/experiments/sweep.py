@@ -362,8 +362,8 @@ def run_sweep(out: Path, spec: SweepSpec | None = None, resume: bool = False, ba
     try:
         todo = [key for key, entry in manifest["runs"].items() if entry["state"] != "done"]
         jobs = [(key, execute_run, (str(out), key, manifest["spec"])) for key in todo]
-        with _live(out, manifest, quiet):
-            executor.run(jobs, *_manifest_updates(out, manifest, serial=executor.name == "serial"))
+        with LiveTable(out, manifest, quiet):
+            executor.run(jobs, *manifest_updates(out, manifest, serial=executor.name == "serial"))
         evaluate_and_report(out, manifest, executor, eval_episodes, quiet)
     finally:
         executor.close()
@@ -388,7 +388,7 @@ def _describe(spec: dict) -> str:
     return f"tasks {' '.join(spec['tasks'])}, algos {' '.join(spec['algos'])}, seeds {' '.join(map(str, spec['seeds']))}"
 
 
-def _manifest_updates(out: Path, manifest: dict, serial: bool):
+def manifest_updates(out: Path, manifest: dict, serial: bool):
     """(on_start, on_finish, poll) callbacks that keep ``sweep.json`` current."""
     submitted: dict[str, float] = {}
 
@@ -439,7 +439,7 @@ def _manifest_updates(out: Path, manifest: dict, serial: bool):
     return on_start, on_finish, poll
 
 
-class _live:
+class LiveTable:
     """The live table of runs on stderr (nothing when quiet)."""
 
     def __init__(self, out: Path, manifest: dict, quiet: bool):
