@@ -36,6 +36,9 @@ from relmogen.experiments.recipes import BASE_DIR, file_sha256
 from relmogen.experiments.sweep import STATUS, read_manifest
 from relmogen.experiments.train import latest_checkpoint
 
+# Ray tests share one xdist worker (scripts/test.sh: --dist loadgroup): two Ray starts at once clash
+pytestmark = pytest.mark.xdist_group("ray")
+
 RECIPE = {
     "title": "tiny two-node recipe", "task": "PointNav", "algo": "relmogen-r", "base": "tiny-2026-12",
     "base_sha256": file_sha256(BASE_DIR / "tiny-2026-12.yaml"), "seeds": [0, 1],
@@ -124,8 +127,10 @@ def test_reproduce_on_two_nodes_places_seeds_on_both_and_recovers_a_lost_node(tm
     manifest = read_manifest(out)
     assert {key: entry["state"] for key, entry in manifest["runs"].items()} == dict.fromkeys(KEYS, "done")
 
-    # both nodes trained a seed, at the same time (the manifest said so while they ran)
-    assert removed and removed["states"] == dict.fromkeys(KEYS, "running")
+    # both nodes trained a seed; the removed node's seed was running when it went (the head's seed
+    # of 2 tiny episodes may already have finished by then)
+    assert removed and removed["states"][removed["key"]] == "running"
+    assert set(removed["states"].values()) <= {"running", "done"}
     first = {key: manifest["runs"][key]["placements"][0] for key in KEYS}
     assert {place["node_id"] for place in first.values()} == {head_id, worker_id}
 

@@ -17,6 +17,9 @@ from relmogen.cli import main
 from relmogen.experiments.sweep import MANIFEST, STATUS, SweepSpec, find_run_dir, read_manifest, run_sweep
 from relmogen.experiments.train import latest_checkpoint
 
+# Ray tests share one xdist worker (scripts/test.sh: --dist loadgroup): two Ray starts at once clash
+pytestmark = pytest.mark.xdist_group("ray")
+
 TASKS = ["PointNav", "TabletopReachM"]
 SWEEP = ["sweep", "--tasks", *TASKS, "--algos", "relmogen-r", "--seeds", "0", "1", "--preset", "tiny",
          "--episodes", "2", "--eval-episodes", "2", "--quiet"]
