@@ -66,6 +66,7 @@ def two_nodes():
     ray = pytest.importorskip("ray")
     from ray.cluster_utils import Cluster
 
+    earlier = {process.pid for process in psutil.Process().children(recursive=True)}  # other tests' on this worker
     cluster = Cluster(initialize_head=True, head_node_args={
         **NODE_ARGS, "include_dashboard": False,
         # a lost node is declared dead after ~1.5 s instead of the default ~15 s
@@ -75,7 +76,7 @@ def two_nodes():
         cluster.wait_for_nodes()
         yield cluster, worker
     finally:
-        ours = psutil.Process().children(recursive=True)
+        ours = [process for process in psutil.Process().children(recursive=True) if process.pid not in earlier]
         if ray.is_initialized():
             ray.shutdown()
         cluster.shutdown()
