@@ -226,11 +226,14 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
     out = Path(args.out or Path("runs") / "reproduce" / recipe.name)
     manifest = run_reproduce(args.recipe, out, args.seeds, resume=args.resume, backend=args.backend,
-                             address=args.address, cpus_per_run=args.cpus_per_run, quiet=args.quiet)
+                             address=args.address, cpus_per_run=args.cpus_per_run, quiet=args.quiet,
+                             publish=args.publish)
     errors = failed_runs(manifest, "seed run", f"relmogen reproduce {args.recipe} --resume --out {out}")
     if errors:
         print("\n".join(errors), file=sys.stderr)
         return 1
+    if manifest.get("published"):
+        print(f"relmogen reproduce: published in {manifest['published']}", file=sys.stderr)
     print(manifest["report"])
     return 0
 
@@ -345,7 +348,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from relmogen.bench.host import host_info
+    from relmogen.experiments.host import host_info
 
     if args.what == "env":
         from relmogen.bench.env_bench import bench_env
@@ -375,7 +378,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def _bench_planner(args: argparse.Namespace) -> int:
-    from relmogen.bench.host import host_info
+    from relmogen.experiments.host import host_info
     from relmogen.bench.planner_bench import bench_planner, planning_runs, print_planner_table
 
     if args.json:
@@ -513,6 +516,10 @@ def _add_reproduce(sub) -> None:
     reproduce.add_argument("--resume", action="store_true",
                            help="continue the reproduction in --out: finished stages are skipped, the others resume")
     reproduce.add_argument("--quiet", action="store_true", help="no live table")
+    reproduce.add_argument("--publish", nargs="?", const=Path("results/table1"), default=None, type=Path,
+                           metavar="DIR", help="copy the report and the runs' results (no checkpoints) into "
+                           "DIR/<Task>__<algo>/ (its reruns/ when the cell exists) and rewrite DIR/README.md "
+                           "(default DIR: results/table1)")
     reproduce.set_defaults(func=cmd_reproduce)
 
 

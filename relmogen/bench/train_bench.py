@@ -14,7 +14,7 @@ each Q-map network of ``QMAP_VARIANTS`` (NCHW against channels-last layout, the 
 ``QMAP_LITE`` network), alternated in one process so that the ratios hold on a shared machine.
 Then one real training run each of relmogen-r and relmogen-d (and with ``probes`` of relmogen-d
 under bfloat16; ``bench_training_run``) gives episodes per CPU-hour. The CLI adds ``host``
-(``relmogen.bench.host``): figures from different host kinds differ 2.5-3x.
+(``relmogen.experiments.host``): figures from different host kinds differ 2.5-3x.
 """
 
 from __future__ import annotations

@@ -8,15 +8,21 @@ resuming the run it continues with its raised budget. A retried or ``--resume``d
 where the files say it stopped (finished stages are skipped, an unfinished one resumes from its
 latest checkpoint). Then each seed's last run is evaluated as the recipe's ``evaluation`` says,
 and ``OUT/<Task>__<algo>/`` gets the report (``relmogen report``'s) and ``OUT/README.md`` Table I.
+``--publish DIR`` (``results/table1``) then copies the report and the run folders' small files (no
+checkpoints, replay or TensorBoard events) into ``DIR/<Task>__<algo>/`` when the cell is new, or
+into ``DIR/<Task>__<algo>/reruns/<commit>-<host kind>/`` beside the cell's own figure, and
+rewrites ``DIR/README.md``.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import shutil
 import subprocess
 from pathlib import Path
 
+from relmogen.experiments.host import host_info
 from relmogen.experiments.recipes import (ExtraEvaluation, Recipe, file_sha256, load_recipe, recipe_path,
                                           resolve_stages, setting_assignment)
 from relmogen.experiments.sweep import (MANIFEST, RUNS, LiveTable, manifest_updates, make_backend, mark_started,
@@ -159,6 +165,36 @@ def commands_text(manifest: dict, run_dirs: list[Path], out: Path) -> str:
     return "\n".join(lines + [""])
 
 
+# -------------------------------------------------------------------------------- publish
+RUN_FILES_LEFT_OUT = ("checkpoints", "tb", "*.log", "events.out.tfevents*", "*.pkl", "*.zip")
+
+
+def publish_report(out: Path, manifest: dict, folder: Path) -> Path:
+    """Copies ``OUT/<cell>/`` and the seeds' run folders (results only) into ``folder/<cell>/``, or
+    into ``folder/<cell>/reruns/<commit>-<host kind>/`` when the cell already holds a figure, and
+    rewrites ``folder/README.md``; returns where the report went."""
+    from relmogen.experiments.table1 import write_table1
+
+    name = manifest["recipe"]["name"].split("/")[-1]
+    cell = Path(folder) / name
+    target = cell / "reruns" / rerun_label(manifest) if (cell / "table.json").is_file() else cell
+    shutil.copytree(out / name, target, dirs_exist_ok=True)
+    for entry in manifest["runs"].values():
+        first_stage = {run_dir: stage for stage, run_dir in reversed(entry.get("stages", {}).items())}
+        for run_dir, stage in first_stage.items():  # a continued stage trained on in its first stage's folder
+            shutil.copytree(out / run_dir, target / "runs" / stage / Path(run_dir).name, dirs_exist_ok=True,
+                            ignore=shutil.ignore_patterns(*RUN_FILES_LEFT_OUT))
+    (target / "rerun.json").write_text(json.dumps({"recipe": manifest["recipe"], "host": manifest.get("host"),
+                                                   "seeds": manifest["seeds"]}, indent=1) + "\n")
+    write_table1(Path(folder))
+    return target
+
+
+def rerun_label(manifest: dict) -> str:
+    host = manifest.get("host") or {}
+    return f"{manifest['recipe']['commit'] or 'unknown'}-{host.get('host_kind', 'unknown')}"
+
+
 def current_commit() -> str | None:
     try:
         found = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=Path(__file__).parent, text=True,
@@ -172,9 +208,11 @@ def current_commit() -> str | None:
 def new_manifest(recipe: Recipe, path: Path, seeds: list[int]) -> dict:
     runs = {run_key(recipe.task, recipe.algo, seed): {"state": "pending", "run_dir": None, "error": None}
             for seed in seeds}
+    host = host_info()
     return {"version": 1, "kind": MANIFEST_KIND, "seeds": seeds, "runs": runs,
             "recipe": {"name": recipe.name, "path": str(path), "sha256": file_sha256(path),
-                       "commit": current_commit()}}
+                       "commit": current_commit()},
+            "host": {"cpu_model": host["cpu_model"], "host_kind": host["host_kind"]}}
 
 
 def open_manifest(out: Path, recipe_arg: str, seeds: list[int] | None, resume: bool) -> dict:
@@ -219,8 +257,9 @@ def record_stages(manifest: dict, on_finish):
 
 def run_reproduce(recipe_arg: str, out: Path, seeds: list[int] | None = None, resume: bool = False,
                   backend: str = "ray", address: str | None = None, cpus_per_run: int = 1,
-                  quiet: bool = False) -> dict:
-    """Train, evaluate and report a recipe in ``out``; returns the manifest (its ``report``: OUT/README.md or None)."""
+                  quiet: bool = False, publish: Path | None = None) -> dict:
+    """Train, evaluate and report a recipe in ``out`` (and publish it in ``publish``); returns the
+    manifest (its ``report``: OUT/README.md or None; ``published``: where the copy went)."""
     out = Path(out).resolve()
     manifest = open_manifest(out, recipe_arg, seeds, resume)
     recipe = load_recipe(manifest["recipe"]["path"])
@@ -244,5 +283,7 @@ def run_reproduce(recipe_arg: str, out: Path, seeds: list[int] | None = None, re
         executor.close()
     report = write_cell_report(out, manifest, recipe)
     manifest["report"] = str(report) if report else None
+    if report and publish is not None:
+        manifest["published"] = str(publish_report(out, manifest, publish))
     write_manifest(out, manifest)
     return manifest

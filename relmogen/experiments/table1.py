@@ -159,15 +159,51 @@ def budget_table(rows: list[dict]) -> str:
     return markdown_grid(header, lines)
 
 
-def table1_markdown(rows: list[dict]) -> str:
-    """The README: header, the comparison, the assisted runs and the training budgets."""
-    return "\n\n".join([HEADER, main_table(rows), ASSISTED_TITLE, assisted_table(rows),
-                        "## Training budget (means over seeds; CPU h counts trainer and environment workers)",
-                        budget_table(rows)]) + "\n"
+RERUNS_TITLE = """## Reruns from the recipes
+
+`relmogen reproduce <Task>__<algo> --publish` of a cell that already holds a figure puts the rerun
+in `<Task>__<algo>/reruns/<commit>-<host kind>/` (report, run folders, `rerun.json`); each line
+sets its figure beside the cell's. CPU h per seed depend on the host kind (docs/benchmarks.md)."""
+
+
+def read_reruns(folder: Path) -> list[dict]:
+    """Every ``folder/<cell>/reruns/<label>/``'s reference row, with its cell, label and host."""
+    reruns = []
+    for path in sorted(Path(folder).glob("*/reruns/*/table.json")):
+        record = json.loads((path.parent / "rerun.json").read_text())
+        for row in json.loads(path.read_text())["rows"]:
+            if row["reference"]:
+                reruns.append(dict(row, source=path.parents[2].name, label=path.parent.name,
+                                   host=(record.get("host") or {}).get("cpu_model", "unknown"),
+                                   commit=record["recipe"].get("commit")))
+    return reruns
+
+
+def reruns_table(rows: list[dict], reruns: list[dict]) -> str:
+    """A line per rerun: the metric of the cell's own row beside the rerun's, its host and budget."""
+    committed = {row["source"]: row for row in rows}
+    header = ["cell", "metric", "the cell", "rerun", "commit", "host", "episodes", "CPU h"]
+    lines = []
+    for rerun in sorted(reruns, key=paper_order):
+        metric, label = metric_of(rerun["task"])
+        lines.append([rerun["source"], label, ours_cell(committed.get(rerun["source"]), metric),
+                      ours_cell(rerun, metric), str(rerun["commit"]), rerun["host"], str(int(rerun["episodes"])),
+                      hours_cell(rerun["cpu_hours"])])
+    return markdown_grid(header, lines)
+
+
+def table1_markdown(rows: list[dict], reruns: list[dict] = ()) -> str:
+    """The README: header, the comparison, the assisted runs, the training budgets and the reruns."""
+    parts = [HEADER, main_table(rows), ASSISTED_TITLE, assisted_table(rows),
+             "## Training budget (means over seeds; CPU h counts trainer and environment workers)",
+             budget_table(rows)]
+    if reruns:
+        parts += [RERUNS_TITLE, reruns_table(rows, list(reruns))]
+    return "\n\n".join(parts) + "\n"
 
 
 def write_table1(folder: Path) -> Path:
-    """Writes ``folder/README.md`` from ``folder/*/table.json``; returns its path."""
+    """Writes ``folder/README.md`` from ``folder/*/table.json`` and the reruns; returns its path."""
     readme = Path(folder) / "README.md"
-    readme.write_text(table1_markdown(read_rows(folder)))
+    readme.write_text(table1_markdown(read_rows(folder), read_reruns(folder)))
     return readme

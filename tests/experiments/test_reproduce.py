@@ -60,3 +60,17 @@ def test_a_staged_recipe_trains_each_stage_then_evaluates_and_reports_without_ra
     assert main(["reproduce", str(recipe), "--resume", "--backend", "serial", "--quiet", "--out", str(out)]) == 0
     assert (second / "episodes.csv").stat().st_mtime_ns == finished
     assert main(["reproduce", str(recipe), "--backend", "serial", "--quiet", "--out", str(out)]) == 2  # no overwrite
+    # published: the first copy makes the cell, the next goes to its reruns/ beside it
+    table1 = tmp_path / "table1"
+    for _ in range(2):
+        assert main(["reproduce", str(recipe), "--resume", "--backend", "serial", "--quiet", "--out", str(out),
+                     "--publish", str(table1)]) == 0
+    cell = table1 / "PointNav__relmogen-r"
+    reruns = list((cell / "reruns").iterdir())
+    assert (cell / "table.json").is_file() and len(reruns) == 1
+    published_runs = list((reruns[0] / "runs").rglob("config.yaml"))
+    assert len(published_runs) == 2  # the first stage's run and the second's (continued by the third)
+    assert not list(reruns[0].rglob("model.zip")) and not list(reruns[0].rglob("events.out.tfevents*"))
+    assert json.loads((reruns[0] / "rerun.json").read_text())["host"]["host_kind"]
+    readme = (table1 / "README.md").read_text()
+    assert "## Reruns from the recipes" in readme and f"| PointNav__relmogen-r | SR |" in readme

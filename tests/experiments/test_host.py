@@ -1,4 +1,4 @@
-from relmogen.bench.host import cpu_model_and_flags, host_info, host_kind
+from relmogen.experiments.host import cpu_model_and_flags, host_info, host_kind
 
 CPUINFO = """processor\t: 0
 model name\t: Intel(R) Xeon(R) Platinum 8488C
