@@ -208,11 +208,15 @@ def current_commit() -> str | None:
 def new_manifest(recipe: Recipe, path: Path, seeds: list[int]) -> dict:
     runs = {run_key(recipe.task, recipe.algo, seed): {"state": "pending", "run_dir": None, "error": None}
             for seed in seeds}
-    host = host_info()
     return {"version": 1, "kind": MANIFEST_KIND, "seeds": seeds, "runs": runs,
             "recipe": {"name": recipe.name, "path": str(path), "sha256": file_sha256(path),
                        "commit": current_commit()},
-            "host": {"cpu_model": host["cpu_model"], "host_kind": host["host_kind"]}}
+            "host": current_host()}
+
+
+def current_host() -> dict:
+    host = host_info()
+    return {"cpu_model": host["cpu_model"], "host_kind": host["host_kind"]}
 
 
 def open_manifest(out: Path, recipe_arg: str, seeds: list[int] | None, resume: bool) -> dict:
@@ -229,6 +233,7 @@ def open_manifest(out: Path, recipe_arg: str, seeds: list[int] | None, resume: b
     if file_sha256(path) != manifest["recipe"]["sha256"] or (seeds and seeds != manifest["seeds"]):
         raise ValueError(f"{out} reproduces {manifest['recipe']['name']} (seeds {manifest['seeds']}) as it was "
                          "then; the recipe or the seeds differ now: start it in a new --out")
+    manifest.setdefault("host", current_host())  # manifests written before hosts were recorded
     return manifest
 
 
