@@ -35,6 +35,8 @@ from relmogen.motion_generation.push import (
     step_physics,
 )
 from relmogen.robots.robot import BASE_LINK, Robot
+from relmogen.simulation.bodies import movable_joints
+from relmogen.simulation.self_collision import SelfCollisionCopy
 from relmogen.simulation.sensors import Camera, CameraFrame
 
 
@@ -99,7 +101,8 @@ class ArmResult:
 
 class ArmCollisionChecker:
     """``q (8,) -> bool``: joint limits, links moved by the planning joints against other
-    bodies, and arm links against non-adjacent robot links (pairs precomputed once).
+    bodies, and arm links against non-adjacent robot links (pairs precomputed once, checked on a
+    ``SelfCollisionCopy`` of the robot: one broadphase there instead of a box per link here).
 
     ``target_body`` (set by ``ArmMotion`` for one subgoal): the gripper links may penetrate that
     body by ``target_penetration_allowance`` instead of ``gripper_penetration_allowance``."""
@@ -112,6 +115,7 @@ class ArmCollisionChecker:
                                    else target_penetration_allowance)
         self.joints = robot.arm_joint_indices
         self.lower, self.upper = robot.joint_lower[self.joints], robot.joint_upper[self.joints]
+        self._limit_low, self._limit_high = self.lower - 1e-9, self.upper + 1e-9
         anchors = self._rigid_anchors()
         shaped = [link for link in anchors if self._has_collision_shape(link)]
         self.moving_links = [link for link in shaped if anchors[link] != BASE_LINK]
@@ -122,10 +126,8 @@ class ArmCollisionChecker:
         candidates = self._self_pair_candidates(shaped, anchors)
         self.ignored_pairs = self._pairs_touching_at_default_pose(candidates)
         self.self_pairs = [pair for pair in candidates if pair not in self.ignored_pairs]
-        self._aabb_links = sorted({link for pair in self.self_pairs for link in pair})
-        self._aabb_slot = {link: i for i, link in enumerate(self._aabb_links)}
-        self._pair_slots = np.array([(self._aabb_slot[a], self._aabb_slot[b]) for a, b in self.self_pairs],
-                                    dtype=np.int64).reshape(-1, 2)
+        self._self_copy = SelfCollisionCopy(robot.spec.urdf_path, self.self_pairs)
+        self._mirrored_joints = movable_joints(client, robot.robot_id)  # head and fingers count too
 
     # ------------------------------------------------------------------ setup
 
@@ -175,13 +177,7 @@ class ArmCollisionChecker:
         return bool(p.getClosestPoints(body, body, 0.0, linkIndexA=a, linkIndexB=b, physicsClientId=self.client))
 
     def within_limits(self, q: Config) -> bool:
-        return bool(np.all(q >= self.lower - 1e-9) and np.all(q <= self.upper + 1e-9))
-
-    def _self_pairs_with_overlapping_boxes(self, boxes: np.ndarray) -> list[tuple[int, int]]:
-        """Narrow-phase candidates: pairs whose axis-aligned bounding boxes overlap."""
-        a, b = boxes[self._pair_slots[:, 0]], boxes[self._pair_slots[:, 1]]
-        overlap = np.all((a[:, 0] <= b[:, 1]) & (b[:, 0] <= a[:, 1]), axis=1)
-        return [self.self_pairs[i] for i in np.flatnonzero(overlap)]
+        return bool(((q >= self._limit_low) & (q <= self._limit_high)).all())
 
     def current_pose_in_collision(self) -> bool:
         return self._hits_world() or self._hits_itself()
@@ -202,9 +198,9 @@ class ArmCollisionChecker:
         return False
 
     def _hits_itself(self) -> bool:
-        body, client = self.robot.robot_id, self.client
-        boxes = np.array([p.getAABB(body, link, physicsClientId=client) for link in self._aabb_links])
-        return any(self._links_touch(a, b) for a, b in self._self_pairs_with_overlapping_boxes(boxes))
+        joints = self._mirrored_joints
+        states = p.getJointStates(self.robot.robot_id, joints, physicsClientId=self.client)
+        return self._self_copy.touching(joints, [state[0] for state in states])
 
     def __call__(self, q: Config) -> bool:
         """Sets the planning joints (the caller restores them) and checks; True = collision."""

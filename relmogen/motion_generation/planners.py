@@ -3,7 +3,8 @@
 Four backends, selected by name with :func:`make_planner` and interchangeable at any time
 (the paper swaps RRT-Connect for Lazy PRM at test time):
 
-* ``rrt_connect``      pybullet-planning's ``birrt`` (RRT-Connect with restarts + shortcutting)
+* ``rrt_connect``      RRT-Connect with restarts + pybullet-planning's shortcutting: its ``birrt``
+                       step for step (the same path for the same seed), nearest neighbours in numpy
 * ``lazy_prm``         pybullet-planning's ``lazy_prm`` over growing roadmap sizes
 * ``ompl_rrtconnect``  OMPL's ``RRTConnect`` (official Python bindings)
 * ``ompl_prm``         OMPL's ``PRM``
@@ -98,6 +99,10 @@ class PlanningProblem:
             raise ValueError(f"start, goal, lower, upper must be 1-D of equal length, got {shapes}")
         if np.any(self.upper <= self.lower) or np.any(self.resolutions <= 0):
             raise ValueError("need lower < upper and positive resolutions")
+        # built once: the planners call extend and distance for every tree node
+        self._extend = self.extend_fn or linear_extend_fn(self.resolutions)
+        self._distance = self.distance_fn or scaled_distance_fn(self.resolutions)
+        self._inverse_resolutions = 1.0 / self.resolutions
 
     @property
     def dimension(self) -> int:
@@ -108,18 +113,53 @@ class PlanningProblem:
         return self.extend_fn is not None
 
     def extend(self, q1: Config, q2: Config) -> list[Config]:
-        fn = self.extend_fn or linear_extend_fn(self.resolutions)
-        return [np.asarray(q, dtype=np.float64) for q in fn(np.asarray(q1), np.asarray(q2))]
+        states = self._extend(np.asarray(q1), np.asarray(q2))
+        if self.extend_fn is None:
+            return states  # already float64 arrays
+        return [np.asarray(q, dtype=np.float64) for q in states]
 
     def distance(self, q1: Config, q2: Config) -> float:
-        fn = self.distance_fn or scaled_distance_fn(self.resolutions)
-        return float(fn(np.asarray(q1), np.asarray(q2)))
+        return float(self._distance(np.asarray(q1), np.asarray(q2)))
+
+    def extend_length(self, q1: Config, q2: Config) -> int:
+        """``len(self.extend(q1, q2))``, without building the states for the straight line."""
+        if self.extend_fn is not None:
+            return len(self.extend(q1, q2))
+        return int(np.ceil(np.linalg.norm((np.asarray(q2) - np.asarray(q1)) / self.resolutions))) + 1
+
+    def nearest(self, configs: np.ndarray, target: Config) -> int:
+        """Index of the row of ``configs`` nearest to ``target`` by ``distance`` (the first of
+        equals). The default metric is one numpy expression with the same float operations, in the
+        same order, as ``scaled_distance_fn``, so the same node wins."""
+        if self.distance_fn is not None:
+            scores = [self.distance(q, target) for q in configs]
+            return scores.index(min(scores))
+        squares = ((np.asarray(target) - configs) * self._inverse_resolutions) ** 2
+        total = squares[:, 0].copy()
+        for column in squares.T[1:]:
+            total += column
+        return int(np.argmin(np.sqrt(total)))
 
     def in_bounds(self, q: Config) -> bool:
         return bool(np.all(q >= self.lower) and np.all(q <= self.upper))
 
     def in_collision(self, q: Config) -> bool:
         return bool(self.collision_fn(np.asarray(q, dtype=np.float64)))
+
+    def with_remembered_collisions(self) -> PlanningProblem:
+        """A copy whose collision function checks each state once: a plan meets the same states
+        again (both ends on every RRT restart, the direct path twice, the final verification the
+        shortcut segments: a fifth of an arm plan's checks), and a check is the arm's largest cost.
+        Assumes the collision function does not change during the copy's life."""
+        collision_fn, checked = self.collision_fn, {}
+
+        def remembered(q: Config) -> bool:
+            key = q.tobytes()
+            if key not in checked:
+                checked[key] = bool(collision_fn(q))
+            return checked[key]
+
+        return dataclasses.replace(self, collision_fn=remembered)
 
     def sample_fn(self, rng: np.random.Generator) -> Callable[[], Config]:
         return lambda: rng.uniform(self.lower, self.upper)
@@ -204,6 +244,7 @@ class Planner(ABC):
     def plan(self, problem: PlanningProblem, rng: RngLike = None) -> PlanResult:
         start_time = time.perf_counter()
         rng = as_generator(rng)
+        problem = problem.with_remembered_collisions()
         path, reason = self._plan(problem, rng)
         if path is not None:
             path, reason = _interpolate_and_verify(problem, path, reason)
@@ -274,27 +315,160 @@ def _seeded_global_rngs(rng: np.random.Generator) -> Iterator[None]:
         np.random.set_state(np_state)
 
 
+def _remove_redundant(path: Sequence[Config], tolerance: float = 1e-3) -> list[Config]:
+    """pybullet-planning's ``remove_redundant``: drop each state within ``tolerance`` (every
+    coordinate) of the last kept one. Its ``np.allclose(a, b, atol=t, rtol=0)`` is
+    ``max |a - b| <= t`` for finite values, at a fifth of the cost."""
+    kept = [path[0]]
+    for q in path[1:]:
+        if np.abs(np.asarray(kept[-1]) - np.asarray(q)).max() > tolerance:
+            kept.append(q)
+    return kept
+
+
+def _unit(vector: np.ndarray) -> np.ndarray:
+    norm = math.sqrt(vector.dot(vector))  # np.linalg.norm's own arithmetic for a vector
+    return vector if norm == 0 else vector / norm
+
+
+def _waypoints_from_path(path: Sequence[Config], difference_fn=None, tolerance: float = 1e-3) -> list[Config]:
+    """pybullet-planning's ``waypoints_from_path`` (the states where a path turns), the same
+    float operations without ``np.allclose``: it was a third of the shortcutting's own cost."""
+    if difference_fn is not None:
+        raise ValueError("only the default difference is supported")
+    path = _remove_redundant(path, tolerance)
+    if len(path) < 2:
+        return path
+    waypoints, last = [path[0]], path[1]
+    last_direction = _unit(np.asarray(path[0]) - np.asarray(last))
+    for q in path[2:]:
+        direction = _unit(np.asarray(waypoints[-1]) - np.asarray(q))
+        if np.abs(last_direction - direction).max() > tolerance:
+            waypoints.append(last)
+            direction = _unit(np.asarray(waypoints[-1]) - np.asarray(q))
+        last, last_direction = q, direction
+    waypoints.append(last)
+    return waypoints
+
+
+@contextlib.contextmanager
+def _smoothing_fixes() -> Iterator[None]:
+    """pybullet-planning's ``smooth_path`` with the faster, equal ``_waypoints_from_path`` and
+    ``_remove_redundant`` for the duration of a call."""
+    module = sys.modules["pybullet_planning.motion_planners.smoothing"]
+    originals = module.waypoints_from_path, module.remove_redundant
+    module.waypoints_from_path, module.remove_redundant = _waypoints_from_path, _remove_redundant
+    try:
+        yield
+    finally:
+        module.waypoints_from_path, module.remove_redundant = originals
+
+
 def _pp_collision_fn(problem: PlanningProblem) -> Callable[..., bool]:
     # pybullet-planning's direct_path calls collision_fn(q, diagnosis=...).
     return lambda q, **_: problem.in_collision(q)
 
 
+class _Tree:
+    """An RRT tree: node configurations as rows of one growing array, and each node's parent."""
+
+    def __init__(self, root: Config):
+        self._configs = np.empty((64, root.shape[0]))
+        self._configs[0] = root
+        self._parents = [-1]
+
+    def __len__(self) -> int:
+        return len(self._parents)
+
+    def config(self, node: int) -> Config:
+        return self._configs[node]
+
+    def configs(self) -> np.ndarray:
+        return self._configs[:len(self)]
+
+    def add(self, q: Config, parent: int) -> int:
+        if len(self) == len(self._configs):
+            self._configs = np.concatenate([self._configs, np.empty_like(self._configs)])
+        self._configs[len(self)] = q
+        self._parents.append(parent)
+        return len(self) - 1
+
+    def path_to(self, node: int) -> list[Config]:
+        """Root .. node."""
+        path = []
+        while node >= 0:
+            path.append(self._configs[node].copy())
+            node = self._parents[node]
+        return path[::-1]
+
+
+def _extend_towards(problem: PlanningProblem, tree: _Tree, target: Config, backward: bool) -> tuple[int, bool]:
+    """Add the collision-free prefix of the line from the nearest node towards ``target`` (the
+    nearest node itself again first, as pybullet-planning does); the last node added (the
+    nearest if none) and whether the whole line was free. ``backward``: the line is interpolated
+    from ``target`` (the goal tree's motions run towards the goal)."""
+    last = problem.nearest(tree.configs(), target)
+    start = tree.config(last)
+    states = problem.extend(target, start)[::-1] if backward else problem.extend(start, target)
+    for q in states:
+        if problem.in_collision(q):
+            return last, False
+        last = tree.add(q, last)
+    return last, True
+
+
+def rrt_connect(problem: PlanningProblem, sample: Callable[[], Config], iterations: int,
+                deadline: float = math.inf) -> list[Config] | None:
+    """pybullet-planning's ``rrt_connect`` (Kuffner and LaValle 2000) step for step: the same
+    samples, trees and path; its nearest-neighbour scan called the distance once per node.
+    ``deadline``: a ``time.perf_counter()`` value after which no iteration starts."""
+    if problem.in_collision(problem.start) or problem.in_collision(problem.goal):
+        return None
+    trees = _Tree(problem.start), _Tree(problem.goal)
+    for _ in range(iterations):
+        if time.perf_counter() >= deadline:
+            break
+        swap = len(trees[0]) > len(trees[1])  # grow the smaller tree towards the sample
+        tree1, tree2 = (trees[1], trees[0]) if swap else trees
+        last1, _ = _extend_towards(problem, tree1, sample(), backward=swap)
+        last2, connected = _extend_towards(problem, tree2, tree1.config(last1), backward=not swap)
+        if connected:
+            path1, path2 = tree1.path_to(last1), tree2.path_to(last2)
+            if swap:
+                path1, path2 = path2, path1
+            return path1[:-1] + path2[::-1]
+    return None
+
+
 class PybulletRRTConnectPlanner(Planner):
+    """pybullet-planning's ``birrt``: the direct path, then up to ``restarts + 1`` RRT-Connect
+    runs, the first path found shortcut by its ``smooth_path``. Same seed, same path; faster."""
+
     backend = "rrt_connect"
     params: RRTConnectParams
 
     def _solve(self, problem, rng):
-        from pybullet_planning.motion_planners import birrt
+        from pybullet_planning.motion_planners import smooth_path
 
         p = self.params
-        with _seeded_global_rngs(rng):
-            path = birrt(
-                problem.start, problem.goal, problem.distance, problem.sample_fn(rng),
-                problem.extend, _pp_collision_fn(problem),
-                max_iterations=p.iterations, restarts=p.restarts, smooth=p.smoothing_iterations,
-                max_time=p.max_time_s,
-            )
-        return (path, "planned") if path is not None else (None, "no path found")
+        deadline = time.perf_counter() + p.max_time_s
+        with _seeded_global_rngs(rng), _smoothing_fixes():
+            direct = _direct_path(problem)  # birrt's first step (remembered if ``Planner`` tried it)
+            if direct is not None:
+                return direct, "direct connection"
+            sample = problem.sample_fn(rng)
+            for _ in range(p.restarts + 1):
+                if time.perf_counter() >= deadline:
+                    break
+                path = rrt_connect(problem, sample, p.iterations, deadline)
+                if path is not None:
+                    # birrt's default cost, len(extend(q1, q2)), without building the states
+                    path = smooth_path(path, problem.extend, _pp_collision_fn(problem),
+                                       distance_fn=problem.extend_length,
+                                       max_smooth_iterations=p.smoothing_iterations,
+                                       max_time=deadline - time.perf_counter())
+                    return path, "planned"
+        return None, "no path found"
 
 
 def _weighted_distance_fn(weights, p_norm=2) -> Callable[[Config, Config], float]:
@@ -340,7 +514,7 @@ class PybulletLazyPRMPlanner(Planner):
         p = self.params
         collision_fn = _pp_collision_fn(problem)
         start_time = time.perf_counter()
-        with _seeded_global_rngs(rng), _lazy_prm_fixes():
+        with _seeded_global_rngs(rng), _lazy_prm_fixes(), _smoothing_fixes():
             for size in p.roadmap_sizes:
                 remaining = p.max_time_s - (time.perf_counter() - start_time)
                 if remaining <= 0:

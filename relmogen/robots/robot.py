@@ -155,10 +155,11 @@ class Robot:
 
     def set_joint_positions(self, indices: Sequence[int], values: Sequence[float]) -> None:
         """Kinematic reset of joint positions (velocities zeroed; motor targets unchanged)."""
-        indices = [int(j) for j in indices]
+        indices = np.asarray(indices, dtype=np.int64).tolist()
         # One multi-DoF call is 3-4x faster than a resetJointState per joint (planners call this
         # for every collision check).
-        p.resetJointStatesMultiDof(self.robot_id, indices, targetValues=[[float(q)] for q in values],
+        p.resetJointStatesMultiDof(self.robot_id, indices,
+                                   targetValues=np.asarray(values, dtype=np.float64).reshape(-1, 1).tolist(),
                                    targetVelocities=[[0.0]] * len(indices), physicsClientId=self.client)
 
     def command_joint_positions(self, indices: Sequence[int], values: Sequence[float],

@@ -131,6 +131,26 @@ def test_collision_fn_flags_arm_folded_into_base(world, robot):
     assert arm.checker.self_pairs and not arm.checker.ignored_pairs
 
 
+def test_collision_fn_agrees_with_testing_every_self_pair_on_the_robot(world, robot):
+    """The self-collision copy (head and fingers mirrored) answers as getClosestPoints on each
+    self pair of the robot itself would, over random arm, head and finger positions."""
+    add_box(world.client, [0.3, 0.5, 0.36], [0.85, 0.0, 0.36])  # a table in front
+    arm = ArmMotion(world.client, robot)
+    checker, body, rng = arm.checker, robot.robot_id, np.random.default_rng(0)
+    others = np.concatenate([robot.head_joint_indices, robot.gripper_joint_indices])
+    outcomes = []
+    for _ in range(300):
+        robot.set_joint_positions(others, rng.uniform(robot.joint_lower[others], robot.joint_upper[others]))
+        q = rng.uniform(checker.lower, checker.upper)
+        robot.set_joint_positions(robot.arm_joint_indices, q)
+        self_hit = any(p.getClosestPoints(body, body, 0.0, linkIndexA=a, linkIndexB=b, physicsClientId=world.client)
+                       for a, b in checker.self_pairs)
+        world_hit = checker._hits_world()
+        assert checker(q) == (world_hit or self_hit)
+        outcomes.append((world_hit, self_hit))
+    assert {(False, False), (False, True), (True, False)} <= set(outcomes)
+
+
 # ---------------------------------------------------------------------------- planning
 
 

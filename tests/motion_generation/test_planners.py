@@ -125,3 +125,92 @@ def test_lazy_prm_distance_is_the_weighted_euclidean_norm():
         assert distance(a, b) == pytest.approx(np.linalg.norm(weights * b - weights * a))
     with pytest.raises(ValueError, match="Euclidean"):
         _weighted_distance_fn(weights, p_norm=1)
+
+
+# ----------------------------------------------------------------------------- speed-ups, same answers
+
+
+def boxes_problem(seed: int) -> PlanningProblem:
+    """4-D, unequal resolutions, six random box obstacles."""
+    centres = np.random.default_rng(seed).uniform(-1, 1, (6, 4))
+    return PlanningProblem(
+        start=np.full(4, -0.9), goal=np.full(4, 0.9), lower=np.full(4, -1.0), upper=np.full(4, 1.0),
+        collision_fn=lambda q: bool(np.any(np.all(np.abs(q - centres) < 0.35, axis=1))),
+        resolutions=np.array([0.05, 0.05, 0.1, 0.02]))
+
+
+def base_problem(seed: int) -> PlanningProblem:
+    """The base's problem: its own extension (turn, drive, turn) and distance."""
+    from mg_maps import cluttered_map, random_free_goal
+
+    from relmogen.motion_generation.base_planner import FETCH_FOOTPRINT_RADIUS, FootprintChecker, base_planning_problem
+
+    rng = np.random.default_rng(seed)
+    local_map = cluttered_map(rng, 20)
+    return base_planning_problem(local_map, random_free_goal(local_map, rng),
+                                 FootprintChecker(local_map, FETCH_FOOTPRINT_RADIUS))
+
+
+def birrt_reference(params: RRTConnectParams):
+    """The rrt_connect backend as it was: pybullet-planning's own ``birrt`` (its nearest-neighbour
+    scan, its smoothing and waypoint extraction)."""
+    from relmogen.motion_generation.planners import PybulletRRTConnectPlanner, _pp_collision_fn, _seeded_global_rngs
+
+    class Birrt(PybulletRRTConnectPlanner):
+        def _solve(self, problem, rng):
+            from pybullet_planning.motion_planners import birrt
+
+            with _seeded_global_rngs(rng):
+                path = birrt(problem.start, problem.goal, problem.distance, problem.sample_fn(rng), problem.extend,
+                             _pp_collision_fn(problem), max_iterations=params.iterations, restarts=params.restarts,
+                             smooth=params.smoothing_iterations, max_time=params.max_time_s)
+            return (path, "planned") if path is not None else (None, "no path found")
+
+    return Birrt(params)
+
+
+@pytest.mark.parametrize("make_problem", [lambda seed: sphere_problem(), boxes_problem, base_problem])
+def test_rrt_connect_returns_pybullet_plannings_birrt_path_for_the_same_seed(make_problem):
+    outcomes = set()
+    for seed in range(6):
+        for params in (RRTConnectParams(), RRTConnectParams(iterations=4, restarts=1)):
+            ours = make_planner("rrt_connect", params).plan(make_problem(seed), rng=seed)
+            theirs = birrt_reference(params).plan(make_problem(seed), rng=seed)
+            assert ours.reason == theirs.reason
+            assert (ours.path is None) == (theirs.path is None)
+            if ours.path is not None:
+                np.testing.assert_array_equal(np.array(ours.path), np.array(theirs.path))
+            outcomes.add(ours.reason)
+    assert "planned" in outcomes
+
+
+def test_a_plan_checks_each_state_once():
+    problem = sphere_problem()
+    checked: list[bytes] = []
+    inner = problem.collision_fn
+    problem.collision_fn = lambda q: checked.append(q.tobytes()) or inner(q)
+    assert make_planner("rrt_connect").plan(problem, rng=3).success
+    assert len(checked) == len(set(checked))
+
+
+def test_waypoints_and_redundancy_removal_equal_pybullet_plannings():
+    from pybullet_planning.motion_planners.utils import remove_redundant, waypoints_from_path
+
+    from relmogen.motion_generation.planners import _remove_redundant, _waypoints_from_path
+
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        dimension = int(rng.integers(2, 9))
+        corners = rng.uniform(-1, 1, (int(rng.integers(1, 6)), dimension))
+        path = []
+        for a, b in zip(corners[:-1], corners[1:]):
+            path += list(a + (b - a) * (np.arange(int(rng.integers(1, 30))) / 30)[:, None])
+            if rng.random() < 0.3:
+                path.append(path[-1].copy())  # RRT paths repeat the node an extension starts from
+        path.append(corners[-1])
+        if rng.random() < 0.3:
+            path = [q + rng.normal(0.0, 3e-4, dimension) for q in path]  # near the 1e-3 tolerance
+        for ours, theirs in ((_waypoints_from_path, waypoints_from_path), (_remove_redundant, remove_redundant)):
+            expected = theirs(path)
+            assert len(ours(path)) == len(expected)
+            assert all(np.array_equal(a, b) for a, b in zip(ours(path), expected))
