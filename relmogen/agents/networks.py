@@ -93,21 +93,38 @@ class SGPREncoder(BaseFeaturesExtractor):
     def image_tensor(self, observations: dict[str, th.Tensor]) -> th.Tensor:
         """RGB in [0, 1] and depth / 3 m as a (B, 4, H, W) view of a channels-last tensor: the
         channels are concatenated last, so the convolutions' layout costs no second copy (the
-        channels-first cat plus a channels-last copy took 5-10x longer at batch 64)."""
+        channels-first cat plus a channels-last copy took 5-10x longer at batch 64). RGB may come
+        as uint8 (the replay) or float (SB3's ``preprocess_obs``); the input is never modified."""
         rgb = observations["rgb"]
         rgb = rgb.permute(0, 2, 3, 1) if self.channels_first else rgb
         depth = observations["depth"].float()
         depth = depth.permute(0, 2, 3, 1) if depth.shape[-1] != 1 else depth
-        return th.cat([rgb.float().mul_(1.0 / 255.0), depth / DEPTH_SCALE], dim=3).permute(0, 3, 1, 2)
+        rgb = rgb.to(th.float32, copy=True).mul_(1.0 / 255.0)
+        return th.cat([rgb, depth / DEPTH_SCALE], dim=3).permute(0, 3, 1, 2)
+
+    def prepare(self, observations: dict[str, th.Tensor]) -> "EncoderInputs":
+        """The parameter-free part of ``forward`` (image tensor, float scan, task vector): SAC's
+        gradient step prepares each observation batch once and feeds it to both the encoder and
+        its target copy (issue 58), straight from the replay's uint8 images."""
+        if isinstance(observations, EncoderInputs):
+            return observations
+        return EncoderInputs(images=self.image_tensor(observations), scan=observations["scan"].float(),
+                             task=self.task_vector(observations))
 
     def forward(self, observations: dict[str, th.Tensor]) -> th.Tensor:
-        images = self.image_tensor(observations)
+        inputs = self.prepare(observations)
+        images = inputs["images"]
         if self.augmenting and self.image_shift:
             images = random_shift(images, self.image_shift)
         image = self.image_fc(self.image_conv(images.contiguous(memory_format=th.channels_last)))
-        scan = self.scan(self.scan_scaling(observations["scan"].float()).unsqueeze(1))
-        task = self.task(self.task_scaling(self.task_vector(observations)))
+        scan = self.scan(self.scan_scaling(inputs["scan"]).unsqueeze(1))
+        task = self.task(self.task_scaling(inputs["task"]))
         return th.cat([image, scan, task], dim=1)
+
+
+class EncoderInputs(dict):
+    """``SGPREncoder.prepare``'s output: ``images`` (B, 4, H, W) channels-last floats, ``scan`` and
+    ``task`` float vectors. Read-only for the encoders, so one batch can feed several of them."""
 
 
 class InputScaling(nn.Module):

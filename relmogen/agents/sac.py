@@ -20,20 +20,32 @@ observed returns; the policy then collapsed onto a few subgoals, some of which f
 
 Before the first gradient step the encoder's input scaling is fitted on the replay (see
 ``relmogen.agents.networks``), and the target critic's encoder gets the same statistics.
+
+The gradient step's arithmetic is SB3's as above; what issue 58 took out of its cost (each
+change checked bit for bit against the step before it, tests/agents/test_sac_update_equivalence.py;
+``relmogen.bench.train_bench.bench_sac_update_variants`` times them): glibc's page faults on the
+step's freshly allocated activations (``keep_freed_memory``: about 12 ms of system time per
+batch-64 update), the observations of s' prepared once for the encoder and its target (uint8
+straight from the replay, no float copy by SB3's ``preprocess_obs``), the actor loss
+back-propagated to the actor's parameters only (not to the critic's weights, whose gradients the
+next critic step discards), and the Polyak update as two multi-tensor calls.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import ctypes.util
 from typing import Any, Iterator
 
 import numpy as np
 import torch as th
 from stable_baselines3 import SAC
-from stable_baselines3.common.utils import polyak_update
+from stable_baselines3.common.preprocessing import preprocess_obs
 from stable_baselines3.sac.policies import MultiInputPolicy
 from torch.nn import functional as F
 
+from relmogen.agents.networks import SGPREncoder
 from relmogen.agents.replay import stored_rows
 
 
@@ -66,6 +78,54 @@ def _q_from_features(critic, features: th.Tensor, actions: th.Tensor) -> list[th
     return [q_net(inputs) for q_net in critic.q_networks]
 
 
+def _encoder_inputs(policy_part, observations):
+    """What ``policy_part.extract_features`` hands its features extractor, computed once per batch:
+    ``SGPREncoder.prepare`` for our encoder, SB3's ``preprocess_obs`` for any other."""
+    encoder = policy_part.features_extractor
+    if isinstance(encoder, SGPREncoder):
+        return encoder.prepare(observations)
+    return preprocess_obs(observations, policy_part.observation_space, normalize_images=policy_part.normalize_images)
+
+
+def polyak_update_all(params: list[th.Tensor], target_params: list[th.Tensor], tau: float) -> None:
+    """SB3's ``polyak_update`` (``target * (1 - tau)``, then ``+ tau * param``: the same values bit
+    for bit) in two multi-tensor calls instead of two calls per tensor."""
+    with th.no_grad():
+        th._foreach_mul_(target_params, 1 - tau)
+        th._foreach_add_(target_params, params, alpha=tau)
+
+
+# glibc's mallopt parameters (malloc.h)
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+MMAP_THRESHOLD = 32 * 2**20  # glibc's maximum on 64-bit: larger blocks (the replay arrays) stay mmapped
+TRIM_THRESHOLD = 256 * 2**20  # free heap kept at the top before glibc returns it to the system
+_kept_freed_memory = False
+
+
+def keep_freed_memory(mmap_threshold: int = MMAP_THRESHOLD, trim_threshold: int = TRIM_THRESHOLD) -> bool:
+    """Have glibc's malloc serve blocks below ``mmap_threshold`` from its heap and keep up to
+    ``trim_threshold`` of freed heap: by default it maps the gradient step's large activations
+    (MBs at batch 64) afresh and unmaps them when freed, so every update paid ~4,500 page faults,
+    about 12 ms of system time in an 88 ms relmogen-r update (issue 58). The values computed are
+    untouched; the process holds its peak heap instead of returning it. False (and nothing done)
+    without glibc."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError, TypeError):
+        return False
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    mapped = mallopt(_M_MMAP_THRESHOLD, int(mmap_threshold))
+    return bool(mapped) and bool(mallopt(_M_TRIM_THRESHOLD, int(trim_threshold)))
+
+
+def _keep_freed_memory_once() -> None:
+    global _kept_freed_memory
+    if not _kept_freed_memory:
+        keep_freed_memory()
+        _kept_freed_memory = True
+
+
 INPUT_SCALING_SAMPLE = 5000  # the newest stored transitions the input statistics are fitted on
 
 
@@ -91,6 +151,7 @@ class SharedEncoderSAC(SAC):
         super().__init__(policy, *args, **kwargs)
 
     def train(self, gradient_steps: int, batch_size: int = 64) -> None:
+        _keep_freed_memory_once()
         self._fit_input_scaling_once()
         self.policy.set_training_mode(True)
         optimizers = [self.actor.optimizer, self.critic.optimizer]
@@ -119,11 +180,13 @@ class SharedEncoderSAC(SAC):
 
     def _gradient_step(self, data, logs: dict[str, list[float]]) -> None:
         critic, target = self.critic, self.critic_target
+        observations = _encoder_inputs(critic, data.observations)
+        next_observations = _encoder_inputs(critic, data.next_observations)  # for both encoders
         with augmented([critic.features_extractor, target.features_extractor]):
-            features = critic.extract_features(data.observations, critic.features_extractor)
+            features = critic.features_extractor(observations)
             with th.no_grad():
-                next_features = critic.extract_features(data.next_observations, critic.features_extractor)
-                next_target_features = target.extract_features(data.next_observations, target.features_extractor)
+                next_features = critic.features_extractor(next_observations)
+                next_target_features = target.features_extractor(next_observations)
         actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
         log_prob = log_prob.reshape(-1, 1)
         ent_coef = self._entropy_step(log_prob, logs)
@@ -141,11 +204,18 @@ class SharedEncoderSAC(SAC):
         q_pi = th.cat(_q_from_features(self.critic, features.detach(), actions_pi), dim=1)
         actor_loss = (ent_coef * log_prob - th.min(q_pi, dim=1, keepdim=True)[0]).mean()
         self.actor.optimizer.zero_grad()
-        actor_loss.backward()
+        # the actor's parameters only: the critic's weight gradients would be discarded unused
+        actor_loss.backward(inputs=self._actor_parameters())
         self.actor.optimizer.step()
-        polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
+        polyak_update_all(*self._polyak_parameters(), self.tau)
         logs["critic_loss"].append(critic_loss.item())
         logs["actor_loss"].append(actor_loss.item())
+
+    def _actor_parameters(self) -> list[th.Tensor]:
+        return [p for group in self.actor.optimizer.param_groups for p in group["params"] if p.requires_grad]
+
+    def _polyak_parameters(self) -> tuple[list[th.Tensor], list[th.Tensor]]:
+        return list(self.critic.parameters()), list(self.critic_target.parameters())
 
     def _entropy_step(self, log_prob: th.Tensor, logs: dict[str, list[float]]) -> th.Tensor:
         if self.ent_coef_optimizer is None:
