@@ -1,7 +1,12 @@
 """The checkpoint store of a run directory: model, replay, best and evaluated checkpoints, each
 written under a staging name and published by atomically replacing its pointer file
 (``checkpoints/latest``, ``latest_replay``, ``best``), so ``kill -9`` at any moment leaves the
-previous ones intact."""
+previous ones intact.
+
+The replay is written compactly (``replay.npz``, ``relmogen.agents.replay.export_replay``: filled
+rows only, next observations not repeated, compressed, no pickled classes; about 15x smaller than
+SB3's pickle of relmogen-d / relmogen-r replays). Runs saved before it have ``replay_buffer.pkl``,
+which ``latest_replay``, ``load_replay`` and ``read_replay_file`` still take."""
 
 from __future__ import annotations
 
@@ -12,12 +17,16 @@ from pathlib import Path
 
 import numpy as np
 
+from relmogen.agents.replay import export_replay, import_replay, read_replay
+
 
 CHECKPOINTS = "checkpoints"
 LATEST = "latest"  # a file naming the newest complete model checkpoint folder
 LATEST_REPLAY = "latest_replay"  # a file naming the newest complete replay folder
 BEST = "best"  # a file naming the model folder of the best periodic evaluation so far
-REPLAY_FILE = "replay_buffer.pkl"
+REPLAY_FILE = "replay.npz"  # written by write_checkpoint (export_replay)
+PICKLED_REPLAY_FILE = "replay_buffer.pkl"  # SB3's save_replay_buffer: runs saved before replay.npz
+REPLAY_FILES = (REPLAY_FILE, PICKLED_REPLAY_FILE)  # the one found first is loaded
 
 
 def latest_checkpoint(run_dir: Path) -> Path | None:
@@ -51,14 +60,56 @@ def evaluation_rank(evaluation: dict) -> tuple[float, float, float]:
 
 
 def latest_replay(run_dir: Path) -> Path | None:
-    """The newest saved replay buffer file: its own folder (``latest_replay``), or inside the
-    model checkpoint for runs saved before the two were split."""
+    """The newest saved replay buffer file (``replay.npz``, or ``replay_buffer.pkl`` of older runs):
+    its own folder (``latest_replay``), or inside the model checkpoint for runs saved before the
+    two were split."""
     root = Path(run_dir) / CHECKPOINTS
     pointer = root / LATEST_REPLAY
-    if pointer.is_file() and (root / pointer.read_text().strip() / REPLAY_FILE).is_file():
-        return root / pointer.read_text().strip() / REPLAY_FILE
+    if pointer.is_file():
+        found = _replay_file(root / pointer.read_text().strip())
+        if found is not None:
+            return found
     checkpoint = latest_checkpoint(run_dir)
-    return checkpoint / REPLAY_FILE if checkpoint is not None and (checkpoint / REPLAY_FILE).is_file() else None
+    return _replay_file(checkpoint) if checkpoint is not None else None
+
+
+def _replay_file(folder: Path) -> Path | None:
+    return next((folder / name for name in REPLAY_FILES if (folder / name).is_file()), None)
+
+
+def replay_buffers(model) -> dict:
+    """The replay buffers of a model by name: ``{"replay": model.replay_buffer}``, or HRL4IN's two
+    levels ``{"high": ..., "low": ...}``."""
+    levels = {name: getattr(model, name, None) for name in ("high", "low")}
+    if all(hasattr(level, "replay_buffer") for level in levels.values()):
+        return {name: level.replay_buffer for name, level in levels.items()}
+    return {"replay": model.replay_buffer}
+
+
+def save_replay(model, path: Path) -> Path:
+    """A model's replay buffer(s) as a compact ``replay.npz`` (``export_replay``)."""
+    return export_replay(replay_buffers(model), path)
+
+
+def load_replay(model, path: Path) -> None:
+    """Load a saved replay into ``model``: a compact file in place into its buffers (which keep
+    the model's device), or an older run's pickle through ``model.load_replay_buffer``."""
+    path = Path(path)
+    if path.suffix == ".pkl":
+        model.load_replay_buffer(path)
+    else:
+        import_replay(path, replay_buffers(model))
+
+
+def read_replay_file(path: Path):
+    """A saved replay without a model, for inspection and tests: the buffer (HRL4IN's:
+    ``{"high": ..., "low": ...}``) of a ``replay.npz`` (``read_replay``) or an older pickle."""
+    path = Path(path)
+    if path.suffix == ".pkl":
+        from stable_baselines3.common.save_util import load_from_pkl
+
+        return load_from_pkl(path)
+    return read_replay(path)
 
 
 def checkpoint_state(folder: Path) -> dict:
@@ -73,7 +124,7 @@ def write_checkpoint(run_dir: Path, model, state: dict, with_replay: bool = True
     root = Path(run_dir) / CHECKPOINTS
     if with_replay:
         _write_folder(root, f"replay_{state['episodes']:07d}", LATEST_REPLAY,
-                      lambda folder: model.save_replay_buffer(folder / REPLAY_FILE), state)
+                      lambda folder: save_replay(model, folder / REPLAY_FILE), state)
     return _write_folder(root, f"episode_{state['episodes']:07d}", LATEST,
                          lambda folder: model.save(folder / "model.zip"), state)
 

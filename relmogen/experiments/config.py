@@ -4,6 +4,11 @@ A preset (``relmogen/configs/presets/<name>.yaml``) has three sections: ``env``,
 (one block per algorithm) and ``run``. ``resolve_config`` picks the block of the chosen
 algorithm, applies ``--set section.key=value`` overrides and returns a ``TrainConfig`` that is
 saved next to the run (``config.yaml``) so a run can always be resumed or reproduced.
+
+Each algorithm has its model of ``algo.`` keys (``CONFIG_OF_ALGO``), all sharing ``AlgoConfig``'s
+keys; a key of another algorithm is refused in one line naming the algorithms that have it. A key
+a resumed run may change is a ``resumable`` field. ``read_config`` also reads ``config.yaml`` files
+written when one flat model held every algorithm's keys (``with_algorithms_keys_only``).
 """
 
 from __future__ import annotations
@@ -11,13 +16,15 @@ from __future__ import annotations
 import difflib
 import math
 from pathlib import Path
-from typing import Literal
+from typing import Literal, get_args
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, SerializeAsAny, ValidationError, ValidationInfo, field_validator,
+                      model_validator)
 
 PRESET_DIR = Path(__file__).resolve().parent.parent / "configs" / "presets"
-ALGOS = ("relmogen-r", "relmogen-d", "sac", "oac", "hrl4in")
+Algo = Literal["relmogen-r", "relmogen-d", "sac", "oac", "hrl4in"]
+ALGOS = get_args(Algo)
 IMAGE_ONLY_ALGOS = {"relmogen-d": "its Q maps are over the camera image's pixels",
                     "hrl4in": "its encoder is the image encoder of SGP-R"}
 CONTROL_OF_ALGO = {"relmogen-r": "subgoal-r", "relmogen-d": "subgoal-d", "sac": "joint", "oac": "joint",
@@ -109,30 +116,61 @@ class EnvConfig(_Strict):
         return self
 
 
+RESUMABLE = {"resumable": True}
+
+
+def resumable(default, **constraints):
+    """A field a resumed run may change (``--resume --set``): the learning schedule or the budget,
+    not what fixes the network's shapes, the replay layout or the task, which a checkpoint cannot follow."""
+    return Field(default, json_schema_extra=RESUMABLE, **constraints)
+
+
+def resumable_keys(model: type[BaseModel]) -> list[str]:
+    """The fields of ``model`` made with ``resumable``."""
+    return [key for key, field in model.model_fields.items() if field.json_schema_extra == RESUMABLE]
+
+
 class AlgoConfig(_Strict):
-    learning_rate: float = Field(3e-4, gt=0)
-    buffer_size: int = Field(10_000, ge=1)
-    batch_size: int = Field(256, ge=1)
-    tau: float = Field(0.005, gt=0, le=1)
-    gamma: float = Field(0.99, gt=0, le=1)
-    learning_starts: int = Field(200, ge=0)
-    train_freq: int = Field(1, ge=1)
-    gradient_steps: int = Field(1, ge=1)
+    """The keys of every algorithm (SB3's off-policy learners); ``CONFIG_OF_ALGO`` has each one's model."""
+
+    learning_rate: float = resumable(3e-4, gt=0)
+    buffer_size: int = resumable(10_000, ge=1)
+    batch_size: int = resumable(256, ge=1)
+    tau: float = resumable(0.005, gt=0, le=1)
+    gamma: float = resumable(0.99, gt=0, le=1)
+    learning_starts: int = resumable(200, ge=0)
+    train_freq: int = resumable(1, ge=1)
+    gradient_steps: int = resumable(1, ge=1)
+    # task-oracle episodes put in the replay before learning (ours; 0 = off): subgoal policies only
+    demo_episodes: int = resumable(0, ge=0)
+
+
+class SACConfig(AlgoConfig):
+    """relmogen-r and sac: SB3's SAC with the SGP-R encoder (agents/sac.py)."""
+
     net_arch: list[int] = Field(default_factory=lambda: [256, 256])
-    # SAC family: the entropy temperature is learned, starting here (SB3's "auto" starts at 1.0)
-    ent_coef_init: float = Field(1.0, gt=0)
+    ent_coef_init: float = Field(1.0, gt=0)  # the learned entropy temperature starts here (SB3's "auto": 1.0)
     ent_coef_min: float = Field(0.0, ge=0)  # floor under the learned temperature; 0 = none (SB3)
-    target_entropy: float | None = None  # SAC family; None = SB3's -dim(A)
-    image_shift: int = Field(0, ge=0)  # SAC family: DrQ's random shift of the images in each batch (pixels; 0 = off)
-    beta_ub: float | None = None  # OAC only
-    delta: float | None = None  # OAC only
-    # DQN (relmogen-d) only
-    target_update_interval: int | None = Field(None, ge=1)
-    max_grad_norm: float | None = Field(None, gt=0)
-    exploration_initial_eps: float | None = Field(None, ge=0, le=1)
-    exploration_final_eps: float | None = Field(None, ge=0, le=1)
-    exploration_steps: int | None = Field(None, ge=1)  # linear epsilon decay length (our choice)
-    conservative_weight: float | None = Field(None, ge=0)  # CQL-style term on untried actions; 0 = off (ours)
+    target_entropy: float | None = None  # None = SB3's -dim(A)
+    image_shift: int = Field(0, ge=0)  # DrQ's random shift of the images in each batch (pixels; 0 = off)
+
+
+class OACConfig(SACConfig):
+    """oac: SAC with optimistic exploration (Ciosek et al. 2019; their MuJoCo settings by default)."""
+
+    beta_ub: float = 4.66
+    delta: float = 23.53
+
+
+class DQNConfig(AlgoConfig):
+    """relmogen-d's masked Double DQN and its Q-map network (agents/dqn.py); None: RelmogenDQN's
+    or the network's default."""
+
+    target_update_interval: int | None = resumable(None, ge=1)
+    max_grad_norm: float | None = resumable(None, gt=0)
+    exploration_initial_eps: float | None = resumable(None, ge=0, le=1)
+    exploration_final_eps: float | None = resumable(None, ge=0, le=1)
+    exploration_steps: int | None = resumable(None, ge=1)  # linear epsilon decay length (our choice)
     mask_arm: bool | None = None  # mask arm pixels without depth or beyond reach (default on; our choice)
     qmap_widths: list[int] | None = None
     qmap_head_width: int | None = None
@@ -140,17 +178,46 @@ class AlgoConfig(_Strict):
     qmap_unet: bool | None = None  # a U-Net Q-map head: branch features at every scale (ours, default off; not with qmap_skip)
     qmap_bf16: bool | None = None  # the Q-map network under bfloat16 autocast but its last layer (ours, default off)
     qmap_head_kernel: Literal[4, 2] | None = None  # the Q-map head's last upsampling kernel: 4 (the paper's) or 2 (ours)
-    demo_episodes: int = Field(0, ge=0)  # task-oracle episodes put in the replay before learning (ours; 0 = off)
-    demo_keep: bool = False  # relmogen-d: the replay never overwrites the demonstrations (ours)
-    demo_margin_weight: float = Field(0.0, ge=0)  # relmogen-d: DQfD's large-margin term on them (ours; 0 = off)
-    n_step_returns: int | None = Field(None, ge=1, le=25)  # relmogen-d: n-step TD targets (DQfD, Rainbow); 1 = off
-    oracle_labels: bool = False  # relmogen-d: the margin term on the oracle's labels of policy states (ours)
-    exploration_temperature: float | None = Field(None, ge=0)  # relmogen-d: explore by softmax(Q / T); 0 = uniform (ours)
-    priority_alpha: float | None = Field(None, ge=0, le=1)  # relmogen-d: prioritized replay's exponent; 0 = uniform (ours)
-    priority_beta: float | None = Field(None, ge=0, le=1)  # relmogen-d: its first importance exponent, to 1 over exploration_steps
-    shift_cells: int | None = Field(None, ge=0)  # relmogen-d: arm pushes' images and cells shifted up to this many cells (ours; 0 = off)
-    # hrl4in only (Li et al. 2020; relmogen/agents/hrl4in.py). The generic keys above train its low
-    # level; the hrl4in_high_* keys its high level.
+
+
+class DQNAddOns(_Strict):
+    """relmogen-d's research add-ons (relmogen/agents/addons), all ours and off by default."""
+
+    conservative_weight: float | None = resumable(None, ge=0)  # CQL-style term on untried actions; 0 = off
+    demo_keep: bool = False  # the replay never overwrites the demonstrations
+    demo_margin_weight: float = resumable(0.0, ge=0)  # DQfD's large-margin term on them (0 = off)
+    n_step_returns: int | None = resumable(None, ge=1, le=25)  # n-step TD targets (DQfD, Rainbow); 1 = off
+    oracle_labels: bool = resumable(False)  # the margin term on the oracle's labels of policy states
+    exploration_temperature: float | None = resumable(None, ge=0)  # explore by softmax(Q / T); 0 = uniform
+    priority_alpha: float | None = resumable(None, ge=0, le=1)  # prioritized replay's exponent; 0 = uniform
+    priority_beta: float | None = resumable(None, ge=0, le=1)  # its first importance exponent, to 1 over exploration_steps
+    shift_cells: int | None = resumable(None, ge=0)  # arm pushes' images and cells shifted up to this many cells (0 = off)
+
+
+class RelmogenDConfig(DQNAddOns, DQNConfig):
+    """relmogen-d: the masked Double DQN with its add-ons (keys in that order: common, DQN, add-ons)."""
+
+    @model_validator(mode="after")
+    def _one_qmap_head(self) -> RelmogenDConfig:
+        if self.qmap_skip and self.qmap_unet:
+            raise ValueError("algo.qmap_skip and algo.qmap_unet are two Q-map heads: choose one")
+        return self
+
+    @model_validator(mode="after")
+    def _demonstration_terms_need_demonstrations(self) -> RelmogenDConfig:
+        uses = [key for key in ("demo_keep", "demo_margin_weight") if getattr(self, key)]
+        uses = [key for key in uses if not (key == "demo_margin_weight" and self.oracle_labels)]
+        if uses and not self.demo_episodes:
+            raise ValueError(f"{' and '.join(uses)}: these act on demonstrations; set algo.demo_episodes too")
+        if self.oracle_labels and not self.demo_margin_weight:
+            raise ValueError("oracle_labels act through the margin term: set algo.demo_margin_weight > 0 too")
+        return self
+
+
+class HRL4INConfig(SACConfig):
+    """hrl4in (Li et al. 2020; relmogen/agents/hrl4in.py): the SAC keys train its low level, the
+    hrl4in_high_* keys its high level."""
+
     hrl4in_k: int = Field(30, ge=1)  # most low-level steps per subgoal (HRL4IN's time_scale)
     hrl4in_embodiments: list[Literal["base", "arm", "both"]] = Field(default_factory=lambda: ["base", "arm", "both"],
                                                                      min_length=1)
@@ -168,11 +235,38 @@ class AlgoConfig(_Strict):
     hrl4in_high_batch_size: int | None = Field(None, ge=1)  # None: batch_size
     hrl4in_high_learning_starts: int = Field(50, ge=0)  # high-level transitions of random subgoals first
 
-    @model_validator(mode="after")
-    def _one_qmap_head(self) -> AlgoConfig:
-        if self.qmap_skip and self.qmap_unet:
-            raise ValueError("algo.qmap_skip and algo.qmap_unet are two Q-map heads: choose one")
-        return self
+
+CONFIG_OF_ALGO: dict[str, type[AlgoConfig]] = {"relmogen-r": SACConfig, "sac": SACConfig, "oac": OACConfig,
+                                               "relmogen-d": RelmogenDConfig, "hrl4in": HRL4INConfig}
+
+
+def algos_with_key(key: str) -> list[str]:
+    return [algo for algo, model in CONFIG_OF_ALGO.items() if key in model.model_fields]
+
+
+def unknown_algo_key(key: str, algo: str, prefix: str = "algo.") -> str | None:
+    """None when ``algo`` has ``key``; else one line saying which algorithms have it or, for a key
+    none has, the nearest key ``algo`` has."""
+    fields = CONFIG_OF_ALGO[algo].model_fields
+    if key in fields:
+        return None
+    owners = algos_with_key(key)
+    if owners:
+        return f"{prefix}{key}: {', '.join(owners)} only, not {algo}"
+    return unknown_key(key, fields, prefix)
+
+
+def unknown_key(key: str, fields, prefix: str) -> str | None:
+    return None if key in fields else f"unknown key {prefix}{key}{did_you_mean(key, fields, prefix)}"
+
+
+def unknown_setting(section: str, key: str, algo: str | None = None, prefix: str | None = None) -> str | None:
+    """None when ``section.key`` (section env, run, or algo of an ``algo`` run) is a setting; else
+    why not, in one line, with the key spelled ``{prefix}{key}`` (default ``{section}.{key}``)."""
+    prefix = f"{section}." if prefix is None else prefix
+    if section == "algo":
+        return unknown_algo_key(key, algo, prefix)
+    return unknown_key(key, {"env": EnvConfig, "run": RunSettings}[section].model_fields, prefix)
 
 
 class RunSettings(_Strict):
@@ -206,45 +300,49 @@ class RunSettings(_Strict):
 
 class TrainConfig(_Strict):
     task: str
-    algo: Literal["relmogen-r", "relmogen-d", "sac", "oac", "hrl4in"]
+    algo: Algo
     seed: int = 0
     preset: str = "cpu"
-    episodes: int = Field(1000, ge=1)
-    max_hours: float | None = Field(None, gt=0)  # stop on wall-clock instead (equal-time comparisons)
+    episodes: int = resumable(1000, ge=1)
+    max_hours: float | None = resumable(None, gt=0)  # stop on wall-clock instead (equal-time comparisons)
     # stop on CPU time of trainer plus workers (relmogen sweep --cpu-hours: fair when runs share machines)
-    max_cpu_hours: float | None = Field(None, gt=0)
+    max_cpu_hours: float | None = resumable(None, gt=0)
     device: str = "auto"
     env: EnvConfig = Field(default_factory=EnvConfig)
-    algo_params: AlgoConfig = Field(default_factory=AlgoConfig)
+    # the model of the run's algorithm (CONFIG_OF_ALGO), validated by _the_algorithms_model
+    algo_params: SerializeAsAny[AlgoConfig] = Field(default_factory=dict, validate_default=True)
     run: RunSettings = Field(default_factory=RunSettings)
+
+    @field_validator("algo_params", mode="wrap")
+    @classmethod
+    def _the_algorithms_model(cls, value, handler, info: ValidationInfo) -> AlgoConfig:
+        model = CONFIG_OF_ALGO.get(info.data.get("algo"))
+        if model is None:  # an unknown algorithm, refused on its own
+            return handler(value)
+        if type(value) is model:
+            return value
+        return model.model_validate(value.model_dump() if isinstance(value, BaseModel) else value)
 
     @property
     def control(self) -> str:
         return CONTROL_OF_ALGO[self.algo]
+
+    @property
+    def oracle_labels(self) -> bool:
+        """Whether the environments label each state with the task oracle's choice (relmogen-d's add-on)."""
+        return isinstance(self.algo_params, RelmogenDConfig) and self.algo_params.oracle_labels
 
     @model_validator(mode="after")
     def _demonstrations_need_subgoals(self) -> TrainConfig:
         if self.algo_params.demo_episodes and self.control == "joint":
             raise ValueError(f"demo_episodes needs a subgoal policy (relmogen-r or relmogen-d), not {self.algo}: "
                              "the task oracles act through subgoals")
-        params = self.algo_params
-        uses = [key for key in ("demo_keep", "demo_margin_weight") if getattr(params, key)]
-        if uses and self.algo != "relmogen-d":
-            raise ValueError(f"{' and '.join(uses)}: relmogen-d only (its replay buffer marks demonstrations), "
-                             f"not {self.algo}")
-        uses = [key for key in uses if not (key == "demo_margin_weight" and params.oracle_labels)]
-        if uses and not params.demo_episodes:
-            raise ValueError(f"{' and '.join(uses)}: these act on demonstrations; set algo.demo_episodes too")
         return self
 
     @model_validator(mode="after")
-    def _oracle_labels_need_the_margin(self) -> TrainConfig:
-        if not self.algo_params.oracle_labels:
+    def _oracle_labels_need_an_oracle(self) -> TrainConfig:
+        if not self.oracle_labels:
             return self
-        if self.algo != "relmogen-d":
-            raise ValueError(f"oracle_labels: relmogen-d only (labels are discrete subgoals), not {self.algo}")
-        if not self.algo_params.demo_margin_weight:
-            raise ValueError("oracle_labels act through the margin term: set algo.demo_margin_weight > 0 too")
         from relmogen.agents.oracles import ORACLES
 
         if self.task not in ORACLES:
@@ -260,14 +358,9 @@ class TrainConfig(_Strict):
         return self
 
     @model_validator(mode="after")
-    def _n_step_returns_need_relmogen_d(self) -> TrainConfig:
-        if (self.algo_params.n_step_returns or 1) > 1 and self.algo != "relmogen-d":
-            raise ValueError(f"n_step_returns: relmogen-d only (its replay buffer computes them), not {self.algo}")
-        return self
-
-    @model_validator(mode="after")
     def _feedback_stays_with_the_image(self) -> TrainConfig:
-        if self.algo == "relmogen-d" and self.env.subgoal_feedback and self.algo_params.shift_cells:
+        if (self.env.subgoal_feedback and isinstance(self.algo_params, RelmogenDConfig)
+                and self.algo_params.shift_cells):
             raise ValueError("env.subgoal_feedback with algo.shift_cells: the shift moves the camera image but not "
                              "the previous arm subgoal's cell drawn in local_map; use one of them")
         return self
@@ -340,7 +433,7 @@ def _check_preset_keys(data: dict, where: str) -> None:
         if section not in PRESET_SECTIONS:
             raise ValueError(f"{where}: unknown section {section!r}{did_you_mean(str(section), PRESET_SECTIONS)} "
                              f"(sections {', '.join(PRESET_SECTIONS)}; see {PRESET_DIR / 'cpu.yaml'})")
-    _check_block_keys(data.get("env"), EnvConfig, where, "env")
+    _check_block_keys(data.get("env"), where, "env", lambda key: unknown_setting("env", key))
     algos = data.get("algos") or {}
     if not isinstance(algos, dict):
         raise ValueError(f"{where}: algos must map algorithm names ({', '.join(ALGOS)}) to their settings")
@@ -348,51 +441,53 @@ def _check_preset_keys(data: dict, where: str) -> None:
         if algo not in ALGOS:
             raise ValueError(f"{where}: unknown algorithm block {algo!r} under algos{did_you_mean(str(algo), ALGOS)} "
                              f"(the algorithms: {', '.join(ALGOS)})")
-        _check_block_keys(block, AlgoConfig, where, f"algos.{algo}")
-    _check_block_keys(data.get("run"), RunSettings, where, "run")
+        _check_block_keys(block, where, f"algos.{algo}",
+                          lambda key, algo=algo: unknown_setting("algo", key, algo, f"algos.{algo}."))
+    _check_block_keys(data.get("run"), where, "run", lambda key: unknown_setting("run", key))
 
 
-def _check_block_keys(block, model: type[BaseModel], where: str, path: str) -> None:
+def _check_block_keys(block, where: str, path: str, problem) -> None:
+    """A ValueError for the first key of ``block`` that ``problem(key)`` finds fault with."""
     if block is None:
         return
     if not isinstance(block, dict):
         raise ValueError(f"{where}: {path} must be a mapping of settings, not {type(block).__name__}")
     for key in block:
-        if key not in model.model_fields:
-            raise ValueError(f"{where}: unknown key {path}.{key}{did_you_mean(str(key), model.model_fields, path + '.')}")
+        text = problem(str(key))
+        if text:
+            raise ValueError(f"{where}: {text}")
 
 
 # ``--set`` sections and the model of each; other keys are TrainConfig's own (task, episodes, max_cpu_hours, ...)
 OVERRIDE_SECTIONS = {"env": "env", "algo": "algo_params", "run": "run"}
 
 
-def check_override_key(assignment: str) -> None:
+def check_override_key(assignment: str, algo: str) -> None:
     """A ValueError, naming the nearest valid key, unless ``assignment`` is ``section.key=value``
-    with a key of env, algo or run, or ``key=value`` with a top-level key (``max_cpu_hours=2``)."""
+    with a key of env, run or ``algo``'s model, or ``key=value`` with a top-level key (``max_cpu_hours=2``)."""
     if "=" not in assignment:
         raise ValueError(f"override {assignment!r} must look like section.key=value")
     dotted = assignment.split("=", 1)[0].strip()
     parts = dotted.split(".")
-    section_models = {"env": EnvConfig, "algo": AlgoConfig, "run": RunSettings}
     top_level = [key for key in TrainConfig.model_fields if key not in OVERRIDE_SECTIONS.values()]
     if len(parts) == 1:
         if parts[0] not in top_level:
-            valid = top_level + [f"{section}.KEY" for section in section_models]
+            valid = top_level + [f"{section}.KEY" for section in OVERRIDE_SECTIONS]
             raise ValueError(f"--set {assignment}: unknown key {dotted}{did_you_mean(dotted, top_level)} "
                              f"(valid: {', '.join(valid)})")
         return
     section, key = parts[0], ".".join(parts[1:])
-    if section not in section_models:
-        raise ValueError(f"--set {assignment}: unknown section {section}{did_you_mean(section, section_models)} "
-                         f"(the sections: {', '.join(section_models)})")
-    fields = section_models[section].model_fields
-    if key not in fields:
-        raise ValueError(f"--set {assignment}: unknown key {dotted}{did_you_mean(key, fields, f'{section}.')}")
+    if section not in OVERRIDE_SECTIONS:
+        raise ValueError(f"--set {assignment}: unknown section {section}{did_you_mean(section, OVERRIDE_SECTIONS)} "
+                         f"(the sections: {', '.join(OVERRIDE_SECTIONS)})")
+    problem = unknown_setting(section, key, algo)
+    if problem:
+        raise ValueError(f"--set {assignment}: {problem}")
 
 
 def _apply_override(tree: dict, assignment: str) -> None:
     """``section.key=value`` with a YAML-parsed value (``env.n_envs=4``, ``algo.net_arch=[64,64]``)."""
-    check_override_key(assignment)
+    check_override_key(assignment, tree["algo"])
     dotted, raw = assignment.split("=", 1)
     *parents, key = dotted.strip().split(".")
     node = tree
@@ -447,40 +542,23 @@ def with_overrides(config: TrainConfig, overrides: list[str]) -> TrainConfig:
     return _validated(tree)
 
 
-# What a resumed run may change: the learning schedule and the run's bookkeeping. The rest fixes
-# the network's shapes, the replay layout or the task, which a checkpoint cannot follow.
-RESUMABLE_ALGO_KEYS = frozenset({
-    "learning_rate", "buffer_size", "batch_size", "gamma", "learning_starts", "train_freq", "gradient_steps",
-    "tau", "target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-    "exploration_steps", "conservative_weight", "demo_episodes", "demo_margin_weight", "n_step_returns",
-    "oracle_labels", "exploration_temperature", "priority_alpha", "priority_beta", "shift_cells",
-})
-RESUMABLE_BUDGET_KEYS = frozenset({"episodes", "max_hours", "max_cpu_hours"})  # a longer (or shorter) run
-DQN_ONLY_KEYS = frozenset({"target_update_interval", "max_grad_norm", "exploration_initial_eps",
-                           "exploration_final_eps", "exploration_steps", "conservative_weight",
-                           "demo_margin_weight", "n_step_returns", "oracle_labels", "exploration_temperature",
-                           "priority_alpha", "priority_beta", "shift_cells"})
+def resumable_settings(algo: str) -> list[str]:
+    """What ``--set`` may change on a resumed ``algo`` run: every ``run.`` key, the budget and the
+    algorithm's resumable keys (``resumable``)."""
+    return (["run.*"] + resumable_keys(TrainConfig)
+            + [f"algo.{key}" for key in resumable_keys(CONFIG_OF_ALGO[algo])])
 
 
 def override_config(config: TrainConfig, overrides: list[str]) -> tuple[TrainConfig, dict[str, object]]:
-    """``--set`` on a resumed run: the new config and the changed algorithm parameters.
-
-    Only ``algo.*`` keys in ``RESUMABLE_ALGO_KEYS``, ``run.*`` keys and the budget
-    (``RESUMABLE_BUDGET_KEYS``) may change."""
+    """``--set`` on a resumed run: the new config and the changed algorithm parameters; only
+    ``resumable_settings`` may change."""
     tree = config.model_dump()
+    allowed = resumable_settings(config.algo)
     for assignment in overrides:
-        check_override_key(assignment)
-        section = assignment.split("=", 1)[0].strip().split(".")
-        if (section[0] == "run" and len(section) == 2) or (section[0] in RESUMABLE_BUDGET_KEYS and len(section) == 1):
-            pass
-        elif section[0] == "algo" and len(section) == 2 and section[1] in RESUMABLE_ALGO_KEYS:
-            pass
-        else:
-            raise ValueError(f"cannot change {assignment.split('=', 1)[0]!r} when resuming; resumable keys: "
-                             f"run.*, {', '.join(sorted(RESUMABLE_BUDGET_KEYS))}, "
-                             f"{', '.join('algo.' + key for key in sorted(RESUMABLE_ALGO_KEYS))}")
-        if section[-1] in DQN_ONLY_KEYS and config.algo != "relmogen-d":
-            raise ValueError(f"{section[-1]} applies to relmogen-d only, not to this {config.algo} run")
+        check_override_key(assignment, config.algo)
+        dotted = assignment.split("=", 1)[0].strip()
+        if not (dotted.startswith("run.") or dotted in allowed):
+            raise ValueError(f"cannot change {dotted!r} when resuming; resumable keys: {', '.join(allowed)}")
         _apply_override(tree, assignment)
     updated = _validated(tree)
     before, after = config.algo_params.model_dump(), updated.algo_params.model_dump()
@@ -493,6 +571,30 @@ def save_config(config: TrainConfig, path: Path) -> None:
 
 def read_config(path: Path) -> TrainConfig:
     try:
-        return _validated(yaml.safe_load(Path(path).read_text()))
+        return _validated(with_algorithms_keys_only(yaml.safe_load(Path(path).read_text())))
     except ValueError as error:
         raise ValueError(f"{path}: {error}") from None
+
+
+def with_algorithms_keys_only(tree: dict) -> dict:
+    """A ``config.yaml``'s tree with ``algo_params`` reduced to its algorithm's keys. Files written
+    before one model per algorithm list every algorithm's keys there, the unset ones null: nulls
+    (which mean the default) and other algorithms' keys at their defaults are dropped; another
+    algorithm's key set to anything else is a ValueError."""
+    params, model = tree.get("algo_params"), CONFIG_OF_ALGO.get(tree.get("algo"))
+    if model is None or not isinstance(params, dict):
+        return tree  # validation says what is wrong
+    kept = {}
+    for key, value in params.items():
+        if value is None or (key not in model.model_fields and _is_a_default(key, value)):
+            continue
+        if key not in model.model_fields and algos_with_key(key):
+            raise ValueError(f"invalid configuration: {unknown_algo_key(key, tree['algo'])} (set to {value!r})")
+        kept[key] = value
+    return dict(tree, algo_params=kept)
+
+
+def _is_a_default(key: str, value) -> bool:
+    """Whether ``value`` is ``key``'s default in the models that have it."""
+    return any(value == CONFIG_OF_ALGO[algo].model_fields[key].get_default(call_default_factory=True)
+               for algo in algos_with_key(key))

@@ -13,7 +13,7 @@ never returns) blocks ``remote.recv()`` forever. Here:
   traceback, the signal that killed it or its exit code, or ``no reply in N s``. ``close`` after
   a failure terminates (then kills) the remaining workers instead of waiting on them.
 
-``relmogen.experiments.train._learn`` catches ``EnvWorkerError``, writes a checkpoint (model and
+``relmogen.experiments.session.learn`` catches ``EnvWorkerError``, writes a checkpoint (model and
 replay) and re-raises it with the run directory and the checkpoint's episode filled in; the CLI
 prints it as one line and exits with status 1.
 """

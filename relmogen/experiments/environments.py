@@ -67,7 +67,7 @@ def make_training_env(config: TrainConfig, run_dir: Path | None = None):
     (``GuardedSubprocVecEnv``: a dead or stuck worker raises ``EnvWorkerError`` instead of hanging;
     with ``run_dir``, a worker's exception is logged to ``run_dir/worker_errors.log``)."""
     per_env = training_env_kwargs(config)
-    oracle_labels = config.algo_params.oracle_labels
+    oracle_labels = config.oracle_labels
     if config.env.n_envs == 1:
         return vec_env_of(per_env, seed=config.seed, vec_env_cls=DummyVecEnv,
                           wrapper_class=OracleLabels if oracle_labels else

@@ -46,7 +46,7 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
     Returns what was loaded, for ``init_from.json``."""
     from stable_baselines3.common.save_util import load_from_zip_file, recursive_setattr
 
-    from relmogen.experiments.checkpoints import checkpoint_state, latest_replay
+    from relmogen.experiments.checkpoints import checkpoint_state, latest_replay, load_replay
 
     data, params, variables = load_from_zip_file(Path(folder) / "model.zip", device=model.device)
     for name in ("observation_space", "action_space"):
@@ -67,7 +67,7 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
         replay = latest_replay(source_run)
         if replay is None:
             raise ValueError(f"--init-replay: {source_run} has no saved replay buffer")
-        model.load_replay_buffer(replay)
+        load_replay(model, replay)
         if model.replay_buffer.n_envs != config.env.n_envs:
             raise ValueError(f"--init-replay: the replay buffer of {source_run} holds {model.replay_buffer.n_envs} "
                              f"environments' columns, this run has env.n_envs={config.env.n_envs}; they must match")

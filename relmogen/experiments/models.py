@@ -10,7 +10,7 @@ from relmogen.agents.hrl4in import HRL4IN, build_hrl4in
 from relmogen.agents.networks import SGPREncoder
 from relmogen.agents.replay import CompactDictReplayBuffer
 from relmogen.agents.sac import OAC, SharedEncoderSAC
-from relmogen.experiments.config import TrainConfig
+from relmogen.experiments.config import AlgoConfig, TrainConfig
 
 
 def resolve_device(device: str) -> str:
@@ -55,31 +55,26 @@ def build_model(config: TrainConfig, env):
                   policy_kwargs=policy_kwargs, replay_buffer_class=CompactDictReplayBuffer, seed=config.seed,
                   device=resolve_device(config.device), verbose=0)
     if config.algo == "oac":
-        return OAC(beta_ub=params.beta_ub or 4.66, delta=params.delta or 23.53, **common)
+        return OAC(beta_ub=params.beta_ub, delta=params.delta, **common)
     return SharedEncoderSAC(**common)
 
 
 def build_dqn(config: TrainConfig, env) -> RelmogenDQN:
+    """relmogen-d's model: every key of its own (``RelmogenDConfig`` beyond ``AlgoConfig``) that is
+    set goes to ``RelmogenDQN``, the ``qmap_*`` ones to its Q-map network, ``demo_keep`` to its replay."""
     from relmogen.tasks import task_class
 
     params = config.algo_params
-    policy_kwargs = {key: value for key, value in
-                     (("widths", params.qmap_widths), ("head_width", params.qmap_head_width),
-                      ("skip", params.qmap_skip), ("bf16", params.qmap_bf16), ("unet", params.qmap_unet),
-                      ("head_kernel", params.qmap_head_kernel))
-                     if value is not None}
-    optional = {key: getattr(params, key) for key in
-                ("target_update_interval", "max_grad_norm", "exploration_initial_eps", "exploration_final_eps",
-                 "exploration_steps", "conservative_weight", "mask_arm", "n_step_returns", "oracle_labels",
-                 "exploration_temperature", "priority_alpha", "priority_beta", "shift_cells")
-                if getattr(params, key) is not None}
+    own = {key: value for key, value in params.model_dump(exclude=set(AlgoConfig.model_fields)).items()
+           if value is not None}
+    policy_kwargs = {key.removeprefix("qmap_"): own.pop(key) for key in list(own) if key.startswith("qmap_")}
+    keep_demonstrations = own.pop("demo_keep")
     return RelmogenDQN(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
-                       demo_margin_weight=params.demo_margin_weight,
-                       replay_buffer_kwargs={"keep_demonstrations": params.demo_keep},
+                       replay_buffer_kwargs={"keep_demonstrations": keep_demonstrations},
                        batch_size=params.batch_size, gamma=params.gamma, learning_starts=params.learning_starts,
                        train_freq=params.train_freq, gradient_steps=params.gradient_steps, tau=params.tau,
                        subgoal_parts=task_class(config.task).subgoal_parts, policy_kwargs=policy_kwargs,
-                       seed=config.seed, device=resolve_device(config.device), verbose=0, **optional)
+                       seed=config.seed, device=resolve_device(config.device), verbose=0, **own)
 
 
 def model_class(config: TrainConfig):

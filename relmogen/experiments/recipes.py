@@ -22,13 +22,12 @@ from typing import Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from relmogen.experiments.config import (AlgoConfig, EnvConfig, RunSettings, TrainConfig, override_config,
-                                         resolve_config)
+from relmogen.experiments.config import Algo, TrainConfig, override_config, resolve_config, unknown_setting
 
 RECIPE_DIR = Path(__file__).resolve().parent.parent / "configs" / "recipes"
 BASE_DIR = RECIPE_DIR / "bases"
 UNBOUNDED_EPISODES = 10**9  # a stage budgeted in CPU hours only (as relmogen sweep --cpu-hours)
-SET_SECTIONS = {"env": EnvConfig, "algo": AlgoConfig, "run": RunSettings}
+SET_SECTIONS = ("env", "algo", "run")
 
 
 class _Strict(BaseModel):
@@ -70,8 +69,6 @@ class Stage(_Strict):
             raise ValueError(f"every setting needs a one-line reason under why: missing for {', '.join(unexplained)}")
         if orphans:
             raise ValueError(f"why names settings that set does not: {', '.join(orphans)}")
-        for key in self.set:
-            check_setting_key(key)
         return self
 
 
@@ -125,7 +122,7 @@ class Ours(_Strict):
 class Recipe(_Strict):
     title: str
     task: str
-    algo: Literal["relmogen-r", "relmogen-d", "sac", "oac", "hrl4in"]
+    algo: Algo
     base: str  # a file of relmogen/configs/recipes/bases, without .yaml
     base_sha256: str  # the base's content when this recipe first cited it
     seeds: list[int] = Field(min_length=1)
@@ -143,6 +140,8 @@ class Recipe(_Strict):
                     raise ValueError(f"stage {name}: {field} {target!r} is not an earlier stage "
                                      f"(earlier: {', '.join(seen) or 'none'})")
             seen.append(name)
+            for key in stage.set:
+                check_setting_key(key, self.algo, name)
         unknown = sorted(set(self.ours.runs) - set(self.stages))
         if unknown:
             raise ValueError(f"ours.runs names unknown stages {', '.join(unknown)}; stages: {', '.join(self.stages)}")
@@ -171,16 +170,15 @@ class Recipe(_Strict):
         return end
 
 
-def check_setting_key(key: str) -> None:
-    """``section.key`` of env, algo or run, with a did-you-mean for a misspelt one."""
+def check_setting_key(key: str, algo: str, stage: str) -> None:
+    """``section.key`` of env, run or ``algo``'s settings, with a did-you-mean for a misspelt one."""
     section, _, name = key.partition(".")
     if section not in SET_SECTIONS or not name or "." in name:
-        raise ValueError(f"setting {key!r} must be env.KEY, algo.KEY or run.KEY (budgets go under budget:)")
-    fields = SET_SECTIONS[section].model_fields
-    if name not in fields:
-        close = difflib.get_close_matches(name, fields, n=1)
-        hint = f"; did you mean {section}.{close[0]}?" if close else ""
-        raise ValueError(f"unknown setting {key!r}{hint}")
+        raise ValueError(f"stage {stage}: setting {key!r} must be env.KEY, algo.KEY or run.KEY "
+                         "(budgets go under budget:)")
+    problem = unknown_setting(section, name, algo)
+    if problem:
+        raise ValueError(f"stage {stage}: {problem}")
 
 
 # ----------------------------------------------------------------------------- loading

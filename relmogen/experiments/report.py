@@ -118,7 +118,7 @@ def checkpoint_evaluations(run_dir: Path, checkpoint_name: str) -> list[dict]:
 
 def is_assisted(config) -> bool:
     """Whether the run learned from more than its reward: oracle demonstrations or oracle labels."""
-    return config.algo_params.demo_episodes > 0 or config.algo_params.oracle_labels
+    return config.algo_params.demo_episodes > 0 or config.oracle_labels
 
 
 def summarise(values: list[float]) -> dict[str, float]:

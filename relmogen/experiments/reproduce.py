@@ -57,7 +57,8 @@ def stage_run_dir(folder: Path, config) -> Path | None:
 
 
 def start_stage(folder: Path, config, init_from: Path | None, init_replay: bool) -> Path:
-    from relmogen.experiments.train import resume, train
+    from relmogen.experiments.resume import resume
+    from relmogen.experiments.train import train
 
     run_dir = stage_run_dir(folder, config)
     if run_dir is None:
@@ -74,7 +75,7 @@ def budget_of(config) -> tuple[int, float]:
 def continue_stage(run_dir: Path, config, settings: dict) -> Path:
     """Resume ``run_dir`` with ``config``'s budget, unless it already reached it (or a later stage's)."""
     from relmogen.experiments.config import read_config
-    from relmogen.experiments.train import resume
+    from relmogen.experiments.resume import resume
 
     recorded, done = read_config(run_dir / "config.yaml"), (run_dir / "done.json").is_file()
     if budget_of(recorded) > budget_of(config) or (budget_of(recorded) == budget_of(config) and done):

@@ -154,7 +154,8 @@ def mark_started(out: Path, key: str) -> dict:
 def execute_run(out: str, key: str, spec: dict) -> dict:
     """Train run ``key`` of the sweep in ``out``, or continue it from its latest checkpoint when
     its directory exists (a resumed sweep, or a retried Ray task). Runs in the worker process."""
-    from relmogen.experiments.train import resume, train
+    from relmogen.experiments.resume import resume
+    from relmogen.experiments.train import train
 
     out = Path(out)
     place = mark_started(out, key)

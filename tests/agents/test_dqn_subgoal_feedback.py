@@ -10,7 +10,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from relmogen.agents.dqn import RelmogenDQN
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import resolve_config
-from relmogen.experiments.train import env_kwargs
+from relmogen.experiments.environments import env_kwargs
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 

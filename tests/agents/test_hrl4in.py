@@ -12,7 +12,10 @@ from relmogen.agents.hrl4in import (EMBODIMENT_MASKS, HRL4IN, HRL4INSettings, Su
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_checkpoint
-from relmogen.experiments.train import env_kwargs, latest_checkpoint, latest_replay, resume, train
+from relmogen.experiments.checkpoints import latest_checkpoint, latest_replay, load_replay
+from relmogen.experiments.environments import env_kwargs
+from relmogen.experiments.resume import resume
+from relmogen.experiments.train import train
 
 EVAL_KEYS = {"task", "algo", "training_seed", "eval_seed", "scene", "policy", "episodes", "success_rate", "spl",
              "closed_5", "closed_10", "mean_return", "mean_steps", "checkpoint", "checkpoint_episode"}
@@ -35,7 +38,7 @@ def test_a_tiny_run_trains_both_levels_and_saves_them(tiny_run):
     assert state["num_timesteps"] == 20 and state["high_transitions"] >= 2 * 10 // 3
     model, config = load_checkpoint(checkpoint, tiny_run, device="cpu")
     assert isinstance(model, HRL4IN) and model.settings.k == config.algo_params.hrl4in_k == 3
-    model.load_replay_buffer(latest_replay(tiny_run))
+    load_replay(model, latest_replay(tiny_run))
     assert model.low.replay_buffer.size() == 20  # one low-level transition per environment step
     assert model.high.replay_buffer.size() == state["high_transitions"]  # one per subgoal
     assert model.low._n_updates > 0 and model.high._n_updates > 0

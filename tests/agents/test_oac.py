@@ -6,7 +6,8 @@ import torch as th
 
 from relmogen.agents.sac import OAC, _q_from_features, optimistic_action
 from relmogen.experiments.config import resolve_config
-from relmogen.experiments.train import build_model, make_training_env
+from relmogen.experiments.environments import make_training_env
+from relmogen.experiments.models import build_model
 
 
 class ZeroNoise:

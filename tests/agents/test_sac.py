@@ -10,7 +10,8 @@ import torch as th
 from relmogen.agents.networks import random_shift
 from relmogen.agents.sac import SharedEncoderSAC
 from relmogen.experiments.config import resolve_config
-from relmogen.experiments.train import build_model, make_training_env
+from relmogen.experiments.environments import make_training_env
+from relmogen.experiments.models import build_model
 
 
 def tiny_sgpr(*overrides: str) -> SharedEncoderSAC:

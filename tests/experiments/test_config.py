@@ -1,6 +1,10 @@
-import pytest
+from pathlib import Path
 
-from relmogen.experiments.config import available_presets, override_config, resolve_config
+import pytest
+import yaml
+
+from relmogen.experiments.config import (ALGOS, available_presets, override_config, read_config, resolve_config,
+                                         resumable_settings, save_config)
 
 
 def test_presets_exist_and_validate():
@@ -178,9 +182,68 @@ def test_state_observations_are_refused_for_the_algorithms_that_need_images(algo
 
 
 def test_state_observations_reach_the_environment_of_the_vector_policies():
-    from relmogen.experiments.train import env_kwargs
+    from relmogen.experiments.environments import env_kwargs
 
     for algo in ("relmogen-r", "sac", "oac"):
         config = resolve_config("PointNav", algo, preset="tiny", overrides=["env.obs_mode=state"])
         assert env_kwargs(config, arm_collision=True)["obs_mode"] == "state"
     assert env_kwargs(resolve_config("PointNav", "sac", preset="tiny"), arm_collision=True)["obs_mode"] == "rgbd"
+
+
+@pytest.mark.parametrize(("algo", "assignment", "message"), [
+    ("relmogen-r", "algo.qmap_widths=[8, 8]", "--set algo.qmap_widths=[8, 8]: algo.qmap_widths: relmogen-d only, "
+                                              "not relmogen-r"),
+    ("sac", "algo.beta_ub=1", "--set algo.beta_ub=1: algo.beta_ub: oac only, not sac"),
+    ("relmogen-d", "algo.net_arch=[64]", "--set algo.net_arch=[64]: algo.net_arch: relmogen-r, sac, oac, hrl4in only, "
+                                         "not relmogen-d"),
+    ("relmogen-d", "algo.qmap_widht=[8]", "--set algo.qmap_widht=[8]: unknown key algo.qmap_widht; did you mean "
+                                          "algo.qmap_widths?"),
+])
+def test_a_key_of_another_algorithm_is_one_line_naming_the_algorithms_that_have_it(algo, assignment, message):
+    with pytest.raises(ValueError) as error:
+        resolve_config("PointNav", algo, preset="tiny", overrides=[assignment])
+    assert str(error.value) == message
+
+
+def test_each_algorithm_has_its_own_keys_and_a_preset_block_of_another_algorithms_key_is_refused(tmp_path):
+    keys = {algo: set(resolve_config("PointNav", algo, preset="tiny").algo_params.model_dump()) for algo in ALGOS}
+    common = set.intersection(*keys.values())
+    assert {"learning_rate", "buffer_size", "batch_size", "gamma", "tau"} <= common
+    assert keys["relmogen-r"] == keys["sac"] and keys["oac"] - keys["sac"] == {"beta_ub", "delta"}
+    assert "qmap_widths" in keys["relmogen-d"] - keys["relmogen-r"] and "hrl4in_k" in keys["hrl4in"] - keys["sac"]
+    (tmp_path / "mixed.yaml").write_text("algos:\n  relmogen-r:\n    exploration_steps: 100\n")
+    with pytest.raises(ValueError, match="algos.relmogen-r.exploration_steps: relmogen-d only, not relmogen-r$"):
+        resolve_config("PointNav", "relmogen-r", preset=str(tmp_path / "mixed.yaml"))
+
+
+def test_resumable_keys_come_from_the_models():
+    assert "algo.exploration_final_eps" in resumable_settings("relmogen-d")
+    assert "algo.exploration_final_eps" not in resumable_settings("relmogen-r")
+    assert not {"algo.qmap_widths", "algo.mask_arm", "algo.demo_keep", "algo.net_arch"} & set(
+        resumable_settings("relmogen-d") + resumable_settings("relmogen-r"))
+    assert {"episodes", "max_hours", "max_cpu_hours", "algo.learning_rate"} <= set(resumable_settings("hrl4in"))
+
+
+OLD_FLAT_FORM = Path(__file__).resolve().parents[2] / "results/table1/PointNav__relmogen-r"
+
+
+@pytest.mark.parametrize("algo", ALGOS)
+def test_a_saved_config_reads_back_the_same(tmp_path, algo):
+    config = resolve_config("PointNav", algo, preset="cpu")
+    save_config(config, tmp_path / "config.yaml")
+    assert read_config(tmp_path / "config.yaml") == config
+
+
+def test_a_config_in_the_old_flat_form_loads_and_a_set_key_of_another_algorithm_is_refused(tmp_path):
+    """Before one model per algorithm, config.yaml listed every algorithm's keys, the unset ones null."""
+    old = next(OLD_FLAT_FORM.glob("*/config.yaml"))
+    tree = yaml.safe_load(old.read_text())
+    assert tree["algo"] == "relmogen-r" and tree["algo_params"]["qmap_widths"] is None
+    assert tree["algo_params"]["hrl4in_k"] == 30 and tree["algo_params"]["demo_keep"] is False
+    config = read_config(old)
+    assert "qmap_widths" not in config.algo_params.model_dump()
+    assert config.algo_params.batch_size == tree["algo_params"]["batch_size"]
+    tree["algo_params"]["hrl4in_k"] = 5
+    (tmp_path / "config.yaml").write_text(yaml.safe_dump(tree))
+    with pytest.raises(ValueError, match=r"algo.hrl4in_k: hrl4in only, not relmogen-r \(set to 5\)$"):
+        read_config(tmp_path / "config.yaml")

@@ -14,8 +14,9 @@ from relmogen.cli import main
 from relmogen.experiments.config import read_config, resolve_config
 from relmogen.experiments.evaluate import evaluate_path, load_policy
 from relmogen.experiments.finetune import INIT_LOG, read_init_from
-from relmogen.experiments.train import (check_trainable, env_kwargs, latest_checkpoint, latest_replay, train,
-                                       training_env_kwargs, vec_env_of)
+from relmogen.experiments.checkpoints import latest_checkpoint, latest_replay
+from relmogen.experiments.environments import env_kwargs, training_env_kwargs, vec_env_of
+from relmogen.experiments.train import check_trainable, train
 
 NO_UPDATES = "algo.learning_starts=100000"  # the new run only collects: its weights stay the loaded ones
 
@@ -45,9 +46,9 @@ def _assert_same_weights(a: dict, b: dict) -> None:
 
 def _replay_size(path: Path, transitions: bool = False) -> int:
     """Rows of n_envs transitions, or with ``transitions`` the transitions themselves."""
-    from stable_baselines3.common.save_util import load_from_pkl
+    from relmogen.experiments.checkpoints import read_replay_file
 
-    buffer = load_from_pkl(path)
+    buffer = read_replay_file(path)
     return int(buffer.size() * (buffer.n_envs if transitions else 1))
 
 

@@ -11,7 +11,8 @@ import relmogen
 import relmogen.experiments.evaluate as evaluate
 from relmogen.experiments.shipped import shipped_policy_dir
 from relmogen.experiments.config import resolve_config
-from relmogen.experiments.train import latest_checkpoint, train
+from relmogen.experiments.checkpoints import latest_checkpoint
+from relmogen.experiments.train import train
 
 SHIPPED = shipped_policy_dir("PushDoorNav-relmogen-r")
 RUN_SETTINGS = {"noop_cost": 0.5, "base_goal": "nearest_reachable", "push_frame": "surface"}  # not the defaults

@@ -15,6 +15,9 @@ Exclusions (every other key of the committed file must match exactly):
 - Keys absent from a committed file (added to ``TrainConfig`` after the run, e.g. ``env.reach_mask``,
   ``algo.qmap_head_kernel``): the recipe's value must equal the key's default, the behaviour the code
   had before the key existed.
+- Other algorithms' keys in a committed file (written when one model held every algorithm's keys):
+  each must be null or at its default, which ``read_config`` drops (``with_algorithms_keys_only``
+  refuses any other value).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from relmogen.experiments.config import TrainConfig
+from relmogen.experiments.config import ALGOS, TrainConfig, with_algorithms_keys_only
 from relmogen.experiments.recipes import (Recipe, available_recipes, dry_run_text, listing_rows, load_recipe,
                                           resolve_stages)
 from relmogen.experiments.table1 import PAPER_METRIC, PAPER_VALUES
@@ -47,7 +50,7 @@ def flatten(tree: dict, prefix: str = "") -> dict:
     return flat
 
 
-DEFAULTS = flatten(TrainConfig(task="PointNav", algo="relmogen-r").model_dump(mode="json"))
+DEFAULTS = {algo: flatten(TrainConfig(task="PointNav", algo=algo).model_dump(mode="json")) for algo in ALGOS}
 
 
 def committed_run(recipe: Recipe, stage: str, seed: int) -> Path:
@@ -73,15 +76,16 @@ def test_every_cell_has_a_recipe():
 def test_stage_equals_the_committed_run_config(cell, stage, seed):
     recipe = load_recipe(cell)
     resolved = flatten(resolve_stages(recipe, seed)[stage].model_dump(mode="json"))
-    committed = flatten(yaml.safe_load((committed_run(recipe, stage, seed) / "config.yaml").read_text()))
+    tree = yaml.safe_load((committed_run(recipe, stage, seed) / "config.yaml").read_text())
+    committed, kept = flatten(tree), flatten(with_algorithms_keys_only(tree))
     excluded = ALWAYS_EXCLUDED | (set() if recipe.chain_end(stage) == stage else BUDGET_KEYS)
     differences = {}
     for key in sorted(set(resolved) - excluded):
-        expected = committed[key] if key in committed else DEFAULTS[key]
+        expected = committed[key] if key in committed else DEFAULTS[recipe.algo][key]
         if resolved[key] != expected:
             differences[key] = {"recipe": resolved[key], "committed" if key in committed else "default": expected}
     assert not differences, f"{cell} stage {stage} seed {seed}: {differences}"
-    assert set(committed) - set(resolved) == set(), "the committed run has keys today's TrainConfig lacks"
+    assert set(kept) - set(resolved) == set(), "the committed run has keys today's TrainConfig lacks"
 
 
 @pytest.mark.parametrize("cell", CELLS)
@@ -148,7 +152,16 @@ def test_unknown_setting_is_one_line_with_a_suggestion(tmp_path):
         data["stages"]["phase1"]["why"]["env.noop_cots"] = "a typo"
 
     message = one_line_error(write_variant(tmp_path, edit))
-    assert "unknown setting 'env.noop_cots'; did you mean env.noop_cost?" in message
+    assert message.endswith("stage phase1: unknown key env.noop_cots; did you mean env.noop_cost?")
+
+
+def test_a_setting_of_another_algorithm_names_the_algorithms_that_have_it(tmp_path):
+    def edit(data):
+        data["stages"]["phase1"]["set"]["algo.qmap_widths"] = [8, 8, 8, 8]
+        data["stages"]["phase1"]["why"]["algo.qmap_widths"] = "a relmogen-d key in a relmogen-r recipe"
+
+    message = one_line_error(write_variant(tmp_path, edit))
+    assert message.endswith("stage phase1: algo.qmap_widths: relmogen-d only, not relmogen-r")
 
 
 def test_a_setting_without_a_reason_is_refused(tmp_path):

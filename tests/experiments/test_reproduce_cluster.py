@@ -34,7 +34,7 @@ import yaml
 from relmogen.cli import main
 from relmogen.experiments.recipes import BASE_DIR, file_sha256
 from relmogen.experiments.sweep import STATUS, read_manifest
-from relmogen.experiments.train import latest_checkpoint
+from relmogen.experiments.checkpoints import latest_checkpoint
 
 # Ray tests share one xdist worker (scripts/test.sh: --dist loadgroup): two Ray starts at once clash
 pytestmark = pytest.mark.xdist_group("ray")
