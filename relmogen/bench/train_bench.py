@@ -29,7 +29,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from relmogen.agents.networks import SGPREncoder
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.experiments.config import resolve_config
-from relmogen.experiments.train import build_model, env_kwargs
+from relmogen.experiments.environments import env_kwargs
+from relmogen.experiments.models import build_model
 
 ALGOS = ("relmogen-r", "sac", "relmogen-d")
 COLLECTED = 16  # real transitions per benchmark; repeated to fill one batch
@@ -190,6 +191,112 @@ def bench_qmap_variants(task: str, updates: int, rounds: int = 3, preset: str = 
     return rows
 
 
+def sac_step_before_issue_58(self, data, logs: dict[str, list[float]]) -> None:
+    """``SharedEncoderSAC._gradient_step`` as it was before issue 58 (SB3's ``extract_features``
+    for each encoder pass, the actor loss back-propagated into the critic's weights too, SB3's
+    ``polyak_update``): the reference of ``bench_sac_update_variants`` and of
+    tests/agents/test_sac_update_equivalence.py, which checks that today's step equals it bit for bit."""
+    from stable_baselines3.common.utils import polyak_update
+    from torch.nn import functional as F
+
+    from relmogen.agents.sac import _actor_from_features, _q_from_features, augmented
+
+    critic, target = self.critic, self.critic_target
+    with augmented([critic.features_extractor, target.features_extractor]):
+        features = critic.extract_features(data.observations, critic.features_extractor)
+        with th.no_grad():
+            next_features = critic.extract_features(data.next_observations, critic.features_extractor)
+            next_target_features = target.extract_features(data.next_observations, target.features_extractor)
+    actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
+    log_prob = log_prob.reshape(-1, 1)
+    ent_coef = self._entropy_step(log_prob, logs)
+    with th.no_grad():
+        next_actions, next_log_prob = _actor_from_features(self.actor, next_features)
+        next_q = th.cat(_q_from_features(self.critic_target, next_target_features, next_actions), dim=1)
+        next_q = th.min(next_q, dim=1, keepdim=True)[0] - ent_coef * next_log_prob.reshape(-1, 1)
+        discounts = data.discounts if data.discounts is not None else self.gamma
+        target_q = data.rewards + (1 - data.dones) * discounts * next_q
+    current_q = _q_from_features(self.critic, features, data.actions)
+    critic_loss = 0.5 * sum(F.mse_loss(q, target_q) for q in current_q)
+    self.critic.optimizer.zero_grad()
+    critic_loss.backward()
+    self.critic.optimizer.step()
+    q_pi = th.cat(_q_from_features(self.critic, features.detach(), actions_pi), dim=1)
+    actor_loss = (ent_coef * log_prob - th.min(q_pi, dim=1, keepdim=True)[0]).mean()
+    self.actor.optimizer.zero_grad()
+    actor_loss.backward()
+    self.actor.optimizer.step()
+    polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
+    logs["critic_loss"].append(critic_loss.item())
+    logs["actor_loss"].append(actor_loss.item())
+
+
+SAC_UPDATE_VARIANTS = {  # name: (the step before issue 58, glibc keeps freed memory)
+    "before": (True, False),
+    "before_kept_memory": (True, True),
+    "step_only": (False, False),
+    "after": (False, True),
+}
+
+
+def bench_sac_update_variants(task: str = "PushDoorNav", updates: int = 10, rounds: int = 5,
+                              preset: str = "cpu") -> list[dict]:
+    """relmogen-r update CPU seconds (and page faults) per batch of each ``SAC_UPDATE_VARIANTS``,
+    each against ``before`` (median over ``rounds`` of the per-round ratio). glibc's thresholds
+    move with a process's history and cannot be put back once set, so each round forks one child
+    per variant from this process (one model and replay, warmed up under glibc's own thresholds):
+    the variants start from the same memory state and alternate on a shared machine. Linux only."""
+    import json
+    import os
+    import resource
+    import types
+
+    from relmogen.agents import sac
+
+    config, env, model, _ = _model_with_replay(task, "relmogen-r", preset)
+    batch = config.algo_params.batch_size
+    kept_before, sac._kept_freed_memory = sac._kept_freed_memory, True  # this process keeps glibc's own
+    try:
+        model.train(gradient_steps=3, batch_size=batch)  # fits the input scaling; allocations settle
+        seconds = {name: [] for name in SAC_UPDATE_VARIANTS}
+        faults = {name: [] for name in SAC_UPDATE_VARIANTS}
+        names = list(SAC_UPDATE_VARIANTS)
+        for round_index in range(rounds):
+            for name in names[round_index % len(names):] + names[:round_index % len(names)]:
+                before, kept = SAC_UPDATE_VARIANTS[name]
+                read, write = os.pipe()
+                child = os.fork()
+                if child == 0:  # measure, report through the pipe, leave without any clean-up
+                    try:
+                        os.close(read)
+                        if kept:
+                            sac.keep_freed_memory()
+                        if before:
+                            model._gradient_step = types.MethodType(sac_step_before_issue_58, model)
+                        model.train(gradient_steps=2, batch_size=batch)  # copy-on-write faults go here
+                        start = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+                        cpu_s = _time_updates(model, updates, batch)[1]
+                        minflt = (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - start) / (updates + 1)
+                        os.write(write, json.dumps([cpu_s, minflt]).encode())
+                    finally:
+                        os._exit(0)
+                os.close(write)
+                with os.fdopen(read) as pipe:
+                    cpu_s, minflt = json.loads(pipe.read())
+                os.waitpid(child, 0)
+                seconds[name].append(cpu_s)
+                faults[name].append(minflt)
+    finally:
+        sac._kept_freed_memory = kept_before
+        env.close()
+    rows = [{"variant": name, "update_cpu_s": round(float(np.median(seconds[name])), 4),
+             "page_faults_per_update": round(float(np.median(faults[name])))} for name in SAC_UPDATE_VARIANTS]
+    for row in rows:
+        ratios = [b / s for b, s in zip(seconds["before"], seconds[row["variant"]])]  # per round
+        row["speedup_vs_before"] = round(float(np.median(ratios)), 3)
+    return rows
+
+
 QMAP_SETTINGS = ((64, 16), (64, 32), (128, 32))  # (image px, Q): the old cpu head, the cpu preset, the paper's
 
 
@@ -243,18 +350,18 @@ def bench_training_run(task: str = "PushDoorNav", preset: str = "cpu", subgoals:
     import tempfile
     from pathlib import Path
 
-    from relmogen.experiments import train as training
+    from relmogen.experiments.environments import make_training_env
+    from relmogen.experiments.session import learn
+    from relmogen.experiments.train import new_run_dir
 
     config = _bench_run_config(task, preset, subgoals, algo, overrides)
     with tempfile.TemporaryDirectory(dir=out) as folder:
-        run_dir = training.new_run_dir(Path(folder), config)
-        model = training.build_model(config, training.make_training_env(config))
-        watch, marks, monitor = _Stopwatch(), {}, training.TrainingMonitor
-        _time_the_run(model, training, watch, marks)
-        try:
-            training._learn(run_dir, config, model, {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, quiet=True)
-        finally:
-            training.TrainingMonitor = monitor
+        run_dir = new_run_dir(Path(folder), config)
+        model = build_model(config, make_training_env(config))
+        watch, marks = _Stopwatch(), {}
+        monitor_class = _time_the_run(model, watch, marks)
+        learn(run_dir, config, model, {"episodes": 0, "timesteps": 0, "wall_time_s": 0.0}, quiet=True,
+              monitor_class=monitor_class)
         episodes = _episodes_after(run_dir / "episodes.csv", marks["start"][2])
     (cpu_start, wall_start, steps_start), (cpu_end, wall_end, steps_end, seconds) = marks["start"], marks["end"]
     cpu, wall, steps = cpu_end - cpu_start, wall_end - wall_start, steps_end - steps_start
@@ -279,11 +386,15 @@ def _bench_run_config(task: str, preset: str, subgoals: int, algo: str = "relmog
     return config.model_copy(update={"episodes": -(-(config.algo_params.learning_starts + subgoals) // length)})
 
 
-def _time_the_run(model, training, watch: _Stopwatch, marks: dict) -> None:
+def _time_the_run(model, watch: _Stopwatch, marks: dict):
     """Time updates, environment steps and checkpoints; mark CPU, wall time and subgoals at the
-    first update (``start``) and at the end of learning, before the workers are closed (``end``)."""
+    first update (``start``) and at the end of learning, before the workers are closed (``end``).
+    Returns the ``TrainingMonitor`` class that times checkpoints and marks the end."""
+    from relmogen.experiments.budgets import process_tree_cpu_seconds
+    from relmogen.experiments.monitor import TrainingMonitor
+
     def now(steps: int) -> tuple[float, float, int]:
-        return training.process_tree_cpu_seconds(), time.perf_counter(), steps
+        return process_tree_cpu_seconds(), time.perf_counter(), steps
 
     class TimedModel(type(model)):  # a class swap, not an attribute: checkpoints pickle attributes
         def train(self, *args, **kwargs):
@@ -292,7 +403,7 @@ def _time_the_run(model, training, watch: _Stopwatch, marks: dict) -> None:
                 watch.seconds.clear()
             return watch.wrap("update", super().train)(*args, **kwargs)
 
-    class TimedMonitor(training.TrainingMonitor):
+    class TimedMonitor(TrainingMonitor):
         def checkpoint(self, with_replay: bool = True) -> None:
             watch.wrap("checkpoint", super().checkpoint)(with_replay)
 
@@ -302,7 +413,7 @@ def _time_the_run(model, training, watch: _Stopwatch, marks: dict) -> None:
 
     model.__class__ = TimedModel
     model.env.step = watch.wrap("environment", model.env.step)
-    training.TrainingMonitor = TimedMonitor
+    return TimedMonitor
 
 
 def _episodes_after(episodes_csv, timesteps: int) -> int:
