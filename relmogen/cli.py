@@ -29,6 +29,7 @@
                           [--stochastic] [--robot NAME] [--out PNG]
     relmogen viz exploration RUN_DIR... [--checkpoint latest|best|PATH] [--episodes N] [--pca-episodes N]
                              [--seed S] [--deterministic] [--out-dir DIR]
+    relmogen analyse TOPIC ...   (relmogen analyse --help: the analyses behind README's and docs' figures)
 """
 
 from __future__ import annotations
@@ -118,8 +119,11 @@ def cmd_oracle(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     from relmogen.experiments.config import resolve_config
     from relmogen.experiments.env_workers import EnvWorkerError
-    from relmogen.experiments.train import (TrainingStopped, resume, resume_budget_note, run_config_file, stop_reason,
-                                           train)
+    from relmogen.experiments.budgets import stop_reason
+    from relmogen.experiments.checkpoints import run_config_file
+    from relmogen.experiments.resume import resume, resume_budget_note
+    from relmogen.experiments.session import TrainingStopped
+    from relmogen.experiments.train import train
 
     overrides = args.set + ([f"env.robot={args.robot}"] if args.robot else [])
     try:
@@ -403,7 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="print the package version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", help="what to do")
     for add in (_add_tasks, _add_demo, _add_oracle, _add_train, _add_sweep, _add_reproduce, _add_eval, _add_export,
-                _add_viz, _add_report, _add_bench):
+                _add_viz, _add_report, _add_bench, _add_analyse):
         add(sub)
     return parser
 
@@ -689,6 +693,12 @@ def _add_bench(sub) -> None:
     bench.add_argument("--robot", default="fetch", metavar="NAME", help="planner: the robot planned for (default fetch)")
     bench.add_argument("--json", action="store_true", help="print the results as one JSON object")
     bench.set_defaults(func=cmd_bench)
+
+
+def _add_analyse(sub) -> None:
+    from relmogen.analysis.cli import add_analyse_parser  # the analyses behind README's and docs' figures
+
+    add_analyse_parser(sub)
 
 
 def _positive_int(text: str) -> int:

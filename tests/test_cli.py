@@ -97,6 +97,12 @@ ERRORS = {
                                    "--set", "run.evl_every=1"], "did you mean run.eval_every_episodes?"),
     "misspelt key on resume": (["train", "--resume", "{run}", "--set", "algo.batchsize=32"],
                                "did you mean algo.batch_size?"),
+    "another algorithm's key in --set": (["train", "--task", "PointNav", "--algo", "relmogen-r", "--preset", "tiny",
+                                         "--out", "runs", "--set", "algo.qmap_widths=[8,8,8,8]"],
+                                        "--set algo.qmap_widths=[8,8,8,8]: algo.qmap_widths: relmogen-d only, "
+                                        "not relmogen-r"),
+    "another algorithm's key on resume": (["train", "--resume", "{run}", "--set", "algo.hrl4in_k=5"],
+                                          "algo.hrl4in_k: hrl4in only, not sac"),
     "invalid value": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny", "--out", "runs",
                        "--set", "algo.gamma=2"], "invalid configuration: algo.gamma: Input should be less than"),
 }
@@ -110,14 +116,33 @@ def typo_preset(tmp_path):
     return path
 
 
-@pytest.mark.parametrize("case", list(ERRORS))
-def test_errors_are_one_line_naming_the_fix_with_exit_code_2_and_create_nothing(case, tmp_path, fake_run,
-                                                                                 typo_preset):
+def run_main(args, capfd) -> subprocess.CompletedProcess:
+    """``main(args)`` in this process (no ~3 s torch import per case), its stdout and stderr as a
+    finished ``relmogen`` process would give them (``capfd``: also what C code prints)."""
+    capfd.readouterr()
+    try:
+        code = main(list(args))
+    except SystemExit as exit_:
+        code = exit_.code
+    out, err = capfd.readouterr()
+    return subprocess.CompletedProcess(["relmogen", *args], code, out, err)
+
+
+# every case runs in this process; these also as a fresh ``python -m relmogen.cli`` (import-time noise)
+IN_A_FRESH_PROCESS = ["invalid value", "eval of a run without a best checkpoint"]
+
+
+@pytest.mark.parametrize("case, fresh", [pytest.param(case, False, id=case) for case in ERRORS] +
+                         [pytest.param(case, True, id=f"{case}-subprocess") for case in IN_A_FRESH_PROCESS])
+def test_errors_are_one_line_naming_the_fix_with_exit_code_2_and_create_nothing(case, fresh, tmp_path, fake_run,
+                                                                                 typo_preset, capfd, monkeypatch):
     args, message = ERRORS[case]
     if case == "CUDA without CUDA" and th.cuda.is_available():
         pytest.skip("this machine has CUDA")
     before = sorted(tmp_path.rglob("*"))
-    done = run_cli(*(arg.format(run=fake_run, typo_preset=typo_preset) for arg in args), cwd=tmp_path)
+    args = [arg.format(run=fake_run, typo_preset=typo_preset) for arg in args]
+    monkeypatch.chdir(tmp_path)
+    done = run_cli(*args, cwd=tmp_path) if fresh else run_main(args, capfd)
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 2, done.stderr
     assert len(lines) == 1 and lines[0].startswith("relmogen: error: ") and message in lines[0], done.stderr
@@ -142,8 +167,9 @@ def test_the_quick_start_captures_the_run_directory_and_evaluates_it(tmp_path):
                                                   r"0:\d\d:\d\d", reason) for reason in reasons), reasons
 
 
-def test_train_json_is_the_only_stdout_and_progress_goes_to_stderr(tmp_path):
-    done = run_cli("train", *TINY_RUN.split(), "--out", tmp_path, "--json", cwd=tmp_path)
+def test_train_json_is_the_only_stdout_and_progress_goes_to_stderr(tmp_path, capfd, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # in this process: the quick start above runs ``relmogen train`` as one
+    done = run_main(["train", *TINY_RUN.split(), "--out", str(tmp_path), "--json"], capfd)
     assert done.returncode == 0, done.stderr
     (line,) = done.stdout.splitlines()
     result = json.loads(line)

@@ -30,7 +30,7 @@
     and with ``push_frame="surface"`` a steep surface. With ``reach_mask="measured"`` (ours) the
     point must lie in the robot's measured reachability map instead (``robots/reachability.py``:
     the sphere also allows points with no IK solution, 15% of the allowed arm cells in
-    ArrangeKitchenMM, ``results/sgpd-explore/reach_mask_ik.py``).
+    ArrangeKitchenMM, ``relmogen analyse reach-mask``).
 
 Rewards are the sum of the low-level (0.1 s) rewards accrued while the subgoal executed.
 When no plan is found the step is a no-op: nothing moves, the reward is 0, and it counts.

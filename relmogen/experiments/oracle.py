@@ -28,7 +28,7 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
         raise ValueError(f"oracles act through {' or '.join(ORACLE_CONTROLS)}, got control {control!r}")
     if control == "subgoal-d" and policy != "oracle":
         raise ValueError("random subgoal-d actions are measured by "
-                         "results/sgpd-first/measure_sgpd_exploration.py "
+                         "relmogen analyse random-sgpd "
                          "(uniform over the allowed actions, as relmogen-d explores)")
     options = {"push_frame": push_frame, "qmap_size": qmap_size} if control == "subgoal-d" else {}
     env = RelmogenEnv(task=task, control=control, scene=scene, base_planner=base_planner, arm_planner=arm_planner,

@@ -13,7 +13,7 @@ def test_an_oracle_acts_through_the_discrete_control_as_its_nearest_actions():
 
 
 def test_random_discrete_actions_and_joint_control_are_refused():
-    with pytest.raises(ValueError, match="measure_sgpd_exploration"):
+    with pytest.raises(ValueError, match="relmogen analyse random-sgpd"):
         run_oracle("PointNav", episodes=1, policy="random", control="subgoal-d", image_size=64, quiet=True)
     with pytest.raises(ValueError, match="got control 'joint'"):
         run_oracle("PointNav", episodes=1, control="joint", image_size=64, quiet=True)
