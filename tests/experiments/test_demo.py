@@ -1,18 +1,29 @@
 """``relmogen demo``: the shipped PushDoorNav policy runs without training and writes a GIF."""
 
 import json
-import subprocess
-import sys
 
 import imageio.v2 as imageio
+import pytest
 
+import relmogen.experiments.rollout as rollout
+import relmogen.experiments.video as video
+from relmogen.cli import main
 from relmogen.experiments.shipped import POLICIES_DIR, shipped_policy_dir
 from relmogen.experiments.demo import DEMO_POLICY
 
 
-def test_demo_loads_the_shipped_policy_and_prints_one_json_object(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "relmogen.cli", "demo", "--episodes", "1", "--json",
-                          "--out", str(tmp_path)], capture_output=True, text=True, check=True).stdout
+@pytest.fixture
+def fewer_frames(monkeypatch):
+    """Fewer third-person frames while a subgoal executes (rendering them is most of a demo's
+    time); an episode still gives a frame after the reset and one after each step."""
+    monkeypatch.setattr(rollout, "FRAME_PERIOD_S", 4 * rollout.FRAME_PERIOD_S)
+    monkeypatch.setattr(video, "FRAMES_PER_SUBGOAL", 1)
+
+
+def test_demo_loads_the_shipped_policy_and_prints_one_json_object(tmp_path, fewer_frames, capfd):
+    capfd.readouterr()  # in this process: ``relmogen --version`` covers a fresh process's output
+    assert main(["demo", "--episodes", "1", "--json", "--out", str(tmp_path)]) == 0
+    out = capfd.readouterr().out
     metrics = json.loads(out.strip().splitlines()[-1])
     assert metrics["task"] == "PushDoorNav" and metrics["policy"] == DEMO_POLICY
     assert metrics["episodes"] == 1 and 0.0 <= metrics["success_rate"] <= 1.0
@@ -32,7 +43,7 @@ def test_shipped_policy_is_small_and_unknown_names_list_the_known_ones():
         raise AssertionError("an unknown policy name must be refused")
 
 
-def test_demo_video_records_the_first_episode_annotated_as_mp4(tmp_path):
+def test_demo_video_records_the_first_episode_annotated_as_mp4(tmp_path, fewer_frames):
     from relmogen.experiments.demo import run_demo
     from relmogen.experiments.video import VIDEO_SIZE
 
