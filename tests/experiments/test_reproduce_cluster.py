@@ -80,7 +80,7 @@ def two_nodes():
         if ray.is_initialized():
             ray.shutdown()
         cluster.shutdown()
-        _, alive = psutil.wait_procs(ours, timeout=30)
+        _, alive = psutil.wait_procs(ours, timeout=60)  # 30 s was short for an orphaned ray::IDLE on a loaded machine
         for process in alive:
             process.kill()
         assert not alive, f"Ray processes outlived the cluster: {[process.pid for process in alive]}"
