@@ -185,7 +185,8 @@ def publish_report(out: Path, manifest: dict, folder: Path) -> Path:
         for run_dir, stage in first_stage.items():  # a continued stage trained on in its first stage's folder
             shutil.copytree(out / run_dir, target / "runs" / stage / Path(run_dir).name, dirs_exist_ok=True,
                             ignore=shutil.ignore_patterns(*RUN_FILES_LEFT_OUT))
-    (target / "rerun.json").write_text(json.dumps({"recipe": manifest["recipe"], "host": manifest.get("host"),
+    recipe = {key: value for key, value in manifest["recipe"].items() if key != "path"}  # no machine's paths
+    (target / "rerun.json").write_text(json.dumps({"recipe": recipe, "host": manifest.get("host"),
                                                    "seeds": manifest["seeds"]}, indent=1) + "\n")
     write_table1(Path(folder))
     return target
