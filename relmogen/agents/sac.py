@@ -190,12 +190,7 @@ class SharedEncoderSAC(SAC):
         actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
         log_prob = log_prob.reshape(-1, 1)
         ent_coef = self._entropy_step(log_prob, logs)
-        with th.no_grad():
-            next_actions, next_log_prob = _actor_from_features(self.actor, next_features)
-            next_q = th.cat(_q_from_features(self.critic_target, next_target_features, next_actions), dim=1)
-            next_q = th.min(next_q, dim=1, keepdim=True)[0] - ent_coef * next_log_prob.reshape(-1, 1)
-            discounts = data.discounts if data.discounts is not None else self.gamma
-            target_q = data.rewards + (1 - data.dones) * discounts * next_q
+        target_q = self._td_target(data, next_features, next_target_features, ent_coef)
         current_q = _q_from_features(self.critic, features, data.actions)
         critic_loss = 0.5 * sum(F.mse_loss(q, target_q) for q in current_q)
         self.critic.optimizer.zero_grad()
@@ -210,6 +205,17 @@ class SharedEncoderSAC(SAC):
         polyak_update_all(*self._polyak_parameters(), self.tau)
         logs["critic_loss"].append(critic_loss.item())
         logs["actor_loss"].append(actor_loss.item())
+
+    @th.no_grad()
+    def _td_target(self, data, next_features: th.Tensor, next_target_features: th.Tensor,
+                   ent_coef: th.Tensor) -> th.Tensor:
+        """SAC's soft TD target: the target critics' smaller Q at the actor's next action, less the
+        entropy term (per-transition discounts where the replay gives them)."""
+        next_actions, next_log_prob = _actor_from_features(self.actor, next_features)
+        next_q = th.cat(_q_from_features(self.critic_target, next_target_features, next_actions), dim=1)
+        next_q = th.min(next_q, dim=1, keepdim=True)[0] - ent_coef * next_log_prob.reshape(-1, 1)
+        discounts = data.discounts if data.discounts is not None else self.gamma
+        return data.rewards + (1 - data.dones) * discounts * next_q
 
     def _actor_parameters(self) -> list[th.Tensor]:
         return [p for group in self.actor.optimizer.param_groups for p in group["params"] if p.requires_grad]

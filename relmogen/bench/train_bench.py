@@ -210,12 +210,7 @@ def sac_step_before_issue_58(self, data, logs: dict[str, list[float]]) -> None:
     actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
     log_prob = log_prob.reshape(-1, 1)
     ent_coef = self._entropy_step(log_prob, logs)
-    with th.no_grad():
-        next_actions, next_log_prob = _actor_from_features(self.actor, next_features)
-        next_q = th.cat(_q_from_features(self.critic_target, next_target_features, next_actions), dim=1)
-        next_q = th.min(next_q, dim=1, keepdim=True)[0] - ent_coef * next_log_prob.reshape(-1, 1)
-        discounts = data.discounts if data.discounts is not None else self.gamma
-        target_q = data.rewards + (1 - data.dones) * discounts * next_q
+    target_q = self._td_target(data, next_features, next_target_features, ent_coef)
     current_q = _q_from_features(self.critic, features, data.actions)
     critic_loss = 0.5 * sum(F.mse_loss(q, target_q) for q in current_q)
     self.critic.optimizer.zero_grad()
