@@ -1,7 +1,7 @@
 """Recipes: a Table I cell as data (``relmogen/configs/recipes/table1/<Task>__<algo>.yaml``).
 
 A recipe names a frozen base (``relmogen/configs/recipes/bases/<name>.yaml``, a preset file that
-never changes once a recipe cites it: the recipe records its sha256), the seeds, one or more
+never changes once a recipe cites it: the recipe records the sha256 of its data, so comments may change), the seeds, one or more
 stages and the evaluation protocol. Each stage is a training run made from the base plus the
 stage's own ``set`` (``section.key: value``, each with a one-line ``why``) and its budget. A stage
 either starts fresh, starts from an earlier stage's model (``init_from``, with ``init_replay`` its
@@ -246,8 +246,15 @@ def file_sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+def content_sha256(path: Path) -> str:
+    """sha256 of a YAML file's data (canonical JSON), not of its bytes: editing a comment or the
+    layout keeps it, changing a value does not."""
+    data = yaml.safe_load(Path(path).read_text())
+    return hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
 def check_base(recipe: Recipe) -> None:
-    digest = file_sha256(base_path(recipe.base))
+    digest = content_sha256(base_path(recipe.base))
     if digest != recipe.base_sha256:
         raise ValueError(f"base {recipe.base} changed since recipe {recipe.name} cited it (sha256 {digest[:12]}, "
                          f"recorded {recipe.base_sha256[:12]}): bases are frozen; put new settings in a new base")

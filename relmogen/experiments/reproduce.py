@@ -23,8 +23,8 @@ import subprocess
 from pathlib import Path
 
 from relmogen.experiments.host import host_info
-from relmogen.experiments.recipes import (ExtraEvaluation, Recipe, file_sha256, load_recipe, recipe_path,
-                                          resolve_stages, setting_assignment)
+from relmogen.experiments.recipes import (ExtraEvaluation, Recipe, content_sha256, file_sha256, load_recipe,
+                                          recipe_path, resolve_stages, setting_assignment)
 from relmogen.experiments.sweep import (MANIFEST, RUNS, LiveTable, manifest_updates, make_backend, mark_started,
                                         read_manifest, run_key, write_manifest)
 
@@ -211,7 +211,7 @@ def new_manifest(recipe: Recipe, path: Path, seeds: list[int]) -> dict:
     runs = {run_key(recipe.task, recipe.algo, seed): {"state": "pending", "run_dir": None, "error": None}
             for seed in seeds}
     return {"version": 1, "kind": MANIFEST_KIND, "seeds": seeds, "runs": runs,
-            "recipe": {"name": recipe.name, "path": str(path), "sha256": file_sha256(path),
+            "recipe": {"name": recipe.name, "path": str(path), "sha256": content_sha256(path),
                        "commit": current_commit()},
             "host": current_host()}
 
@@ -232,7 +232,8 @@ def open_manifest(out: Path, recipe_arg: str, seeds: list[int] | None, resume: b
     manifest = read_manifest(out)
     if manifest.get("kind") != MANIFEST_KIND:
         raise ValueError(f"{out}/{MANIFEST} is a relmogen sweep's, not a reproduction; use relmogen sweep --resume")
-    if file_sha256(path) != manifest["recipe"]["sha256"] or (seeds and seeds != manifest["seeds"]):
+    recorded = manifest["recipe"]["sha256"]  # of the recipe's data; of its bytes in manifests before 2026-12-08
+    if recorded not in (content_sha256(path), file_sha256(path)) or (seeds and seeds != manifest["seeds"]):
         raise ValueError(f"{out} reproduces {manifest['recipe']['name']} (seeds {manifest['seeds']}) as it was "
                          "then; the recipe or the seeds differ now: start it in a new --out")
     manifest.setdefault("host", current_host())  # manifests written before hosts were recorded

@@ -29,8 +29,8 @@ import pytest
 import yaml
 
 from relmogen.experiments.config import ALGOS, TrainConfig, with_algorithms_keys_only
-from relmogen.experiments.recipes import (Recipe, available_recipes, dry_run_text, listing_rows, load_recipe,
-                                          resolve_stages)
+from relmogen.experiments.recipes import (BASE_DIR, Recipe, available_recipes, content_sha256, dry_run_text,
+                                          file_sha256, listing_rows, load_recipe, resolve_stages)
 from relmogen.experiments.table1 import PAPER_METRIC, PAPER_VALUES
 
 REPO = Path(__file__).resolve().parents[2]
@@ -177,6 +177,17 @@ def test_stages_refer_only_to_earlier_stages(tmp_path):
 def test_a_changed_base_is_refused(tmp_path):
     path = write_variant(tmp_path, lambda data: data.update(base_sha256="0" * 64))
     assert "bases are frozen" in one_line_error(path)
+
+
+def test_the_recorded_sha256_is_of_the_data_not_the_bytes(tmp_path):
+    base = BASE_DIR / "cpu-2026-12.yaml"
+    edited = tmp_path / "comments.yaml"
+    edited.write_text("# a new comment\n" + base.read_text().replace("#", "# edited:"))
+    changed = tmp_path / "value.yaml"
+    changed.write_text(base.read_text().replace("image_size: 64", "image_size: 96", 1))
+    assert file_sha256(edited) != file_sha256(base)
+    assert content_sha256(edited) == content_sha256(base)
+    assert content_sha256(changed) != content_sha256(base)
 
 
 def test_a_continue_stage_changes_only_what_a_resumed_run_can(tmp_path):

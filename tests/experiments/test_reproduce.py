@@ -9,12 +9,12 @@ from pathlib import Path
 import yaml
 
 from relmogen.cli import main
-from relmogen.experiments.recipes import BASE_DIR, file_sha256
+from relmogen.experiments.recipes import BASE_DIR, content_sha256
 from relmogen.experiments.sweep import read_manifest
 
 TINY_RECIPE = {
     "title": "tiny smoke recipe", "task": "PointNav", "algo": "relmogen-r", "base": "tiny-2026-12",
-    "base_sha256": file_sha256(BASE_DIR / "tiny-2026-12.yaml"), "seeds": [0],
+    "base_sha256": content_sha256(BASE_DIR / "tiny-2026-12.yaml"), "seeds": [0],
     "stages": {
         "first": {"budget": {"episodes": 2}},
         "second": {"init_from": "first", "init_replay": True, "budget": {"episodes": 2},

@@ -32,7 +32,7 @@ import pytest
 import yaml
 
 from relmogen.cli import main
-from relmogen.experiments.recipes import BASE_DIR, file_sha256
+from relmogen.experiments.recipes import BASE_DIR, content_sha256
 from relmogen.experiments.sweep import STATUS, read_manifest
 from relmogen.experiments.checkpoints import latest_checkpoint
 
@@ -41,7 +41,7 @@ pytestmark = pytest.mark.xdist_group("ray")
 
 RECIPE = {
     "title": "tiny two-node recipe", "task": "PointNav", "algo": "relmogen-r", "base": "tiny-2026-12",
-    "base_sha256": file_sha256(BASE_DIR / "tiny-2026-12.yaml"), "seeds": [0, 1],
+    "base_sha256": content_sha256(BASE_DIR / "tiny-2026-12.yaml"), "seeds": [0, 1],
     "stages": {"train": {"budget": {"episodes": 2}}},
     "evaluation": {"episodes": 2, "seed": 100000, "checkpoint": "latest",
                    "validation": {"every_episodes": 1000, "episodes": 1, "seed": None}},
