@@ -64,6 +64,7 @@ from relmogen.agents.addons.prioritized_replay import (PrioritizedRows, annealed
                                                        weighted_td_loss)
 from relmogen.agents.addons.shift_augmentation import shift_arm_pushes
 from relmogen.agents.addons.skip_no_ops import NoOpMemory
+from relmogen.agents.allocator import keep_freed_memory_once
 from relmogen.agents.qmap_network import NUM_MAPS, QMapNetwork
 from relmogen.agents.replay import CompactDictReplayBuffer, with_full_capacity
 from relmogen.envs.subgoal_controls import PUSH_BINS, YAW_BINS
@@ -459,6 +460,7 @@ class RelmogenDQN(DQN):
             return data.rewards + (1 - data.dones) * discounts * next_q
 
     def train(self, gradient_steps: int, batch_size: int = 100) -> None:
+        keep_freed_memory_once()  # glibc keeps the update's freed activations (relmogen.agents.allocator)
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
         use_n_step_returns(self.replay_buffer, self.n_step_returns, self.gamma)

@@ -24,7 +24,7 @@ Before the first gradient step the encoder's input scaling is fitted on the repl
 The gradient step's arithmetic is SB3's as above; what issue 58 took out of its cost (each
 change checked bit for bit against the step before it, tests/agents/test_sac_update_equivalence.py;
 ``relmogen.bench.train_bench.bench_sac_update_variants`` times them): glibc's page faults on the
-step's freshly allocated activations (``keep_freed_memory``: about 12 ms of system time per
+step's freshly allocated activations (``relmogen.agents.allocator``: about 12 ms of system time per
 batch-64 update), the observations of s' prepared once for the encoder and its target (uint8
 straight from the replay, no float copy by SB3's ``preprocess_obs``), the actor loss
 back-propagated to the actor's parameters only (not to the critic's weights, whose gradients the
@@ -34,8 +34,6 @@ next critic step discards), and the Polyak update as two multi-tensor calls.
 from __future__ import annotations
 
 import contextlib
-import ctypes
-import ctypes.util
 from typing import Any, Iterator
 
 import numpy as np
@@ -45,6 +43,7 @@ from stable_baselines3.common.preprocessing import preprocess_obs
 from stable_baselines3.sac.policies import MultiInputPolicy
 from torch.nn import functional as F
 
+from relmogen.agents.allocator import keep_freed_memory_once
 from relmogen.agents.networks import SGPREncoder
 from relmogen.agents.replay import stored_rows
 
@@ -95,37 +94,6 @@ def polyak_update_all(params: list[th.Tensor], target_params: list[th.Tensor], t
         th._foreach_add_(target_params, params, alpha=tau)
 
 
-# glibc's mallopt parameters (malloc.h)
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
-MMAP_THRESHOLD = 32 * 2**20  # glibc's maximum on 64-bit: larger blocks (the replay arrays) stay mmapped
-TRIM_THRESHOLD = 256 * 2**20  # free heap kept at the top before glibc returns it to the system
-_kept_freed_memory = False
-
-
-def keep_freed_memory(mmap_threshold: int = MMAP_THRESHOLD, trim_threshold: int = TRIM_THRESHOLD) -> bool:
-    """Have glibc's malloc serve blocks below ``mmap_threshold`` from its heap and keep up to
-    ``trim_threshold`` of freed heap: by default it maps the gradient step's large activations
-    (MBs at batch 64) afresh and unmaps them when freed, so every update paid ~4,500 page faults,
-    about 12 ms of system time in an 88 ms relmogen-r update (issue 58). The values computed are
-    untouched; the process holds its peak heap instead of returning it. False (and nothing done)
-    without glibc."""
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError, TypeError):
-        return False
-    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
-    mapped = mallopt(_M_MMAP_THRESHOLD, int(mmap_threshold))
-    return bool(mapped) and bool(mallopt(_M_TRIM_THRESHOLD, int(trim_threshold)))
-
-
-def _keep_freed_memory_once() -> None:
-    global _kept_freed_memory
-    if not _kept_freed_memory:
-        keep_freed_memory()
-        _kept_freed_memory = True
-
-
 INPUT_SCALING_SAMPLE = 5000  # the newest stored transitions the input statistics are fitted on
 
 
@@ -151,7 +119,7 @@ class SharedEncoderSAC(SAC):
         super().__init__(policy, *args, **kwargs)
 
     def train(self, gradient_steps: int, batch_size: int = 64) -> None:
-        _keep_freed_memory_once()
+        keep_freed_memory_once()
         self._fit_input_scaling_once()
         self.policy.set_training_mode(True)
         optimizers = [self.actor.optimizer, self.critic.optimizer]

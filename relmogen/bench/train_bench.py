@@ -12,6 +12,10 @@ arrays, per 1e4 transitions and at the preset's buffer size), and the update cos
 (``algo.qmap_bf16``), both only with ``probes``. ``qmap_variants`` times the relmogen-d update of
 each Q-map network of ``QMAP_VARIANTS`` (NCHW against channels-last layout, the cheaper
 ``QMAP_LITE`` network), alternated in one process so that the ratios hold on a shared machine.
+``bench_sac_update_variants`` (relmogen-r, the steps of issue 58) and
+``bench_qmap_update_allocator`` (relmogen-d, glibc's malloc thresholds against
+``relmogen.agents.allocator.keep_freed_memory``) time variants of one update in forked children
+(``forked_update_ab``); the second runs with ``probes`` (about 30 s), the first is called alone.
 Then one real training run each of relmogen-r and relmogen-d (and with ``probes`` of relmogen-d
 under bfloat16; ``bench_training_run``) gives episodes per CPU-hour. The CLI adds ``host``
 (``relmogen.experiments.host``): figures from different host kinds differ 2.5-3x.
@@ -112,8 +116,9 @@ def bench_train(task: str = "PushDoorNav", updates: int = 10, advance=None, subg
     """The update and step rates of every algorithm with the ``cpu`` preset, the relmogen-d
     update of each Q-map network layout alternated in one process (``qmap_variants``), then one
     real ``cpu`` training run each of relmogen-r and relmogen-d (see ``bench_training_run``).
-    ``probes`` adds the ``paper`` preset (128 px), the Q-map resolutions and bfloat16, which take
-    most of an hour on a CPU without native bfloat16."""
+    ``probes`` adds the ``paper`` preset (128 px), the Q-map resolutions, bfloat16 (which take
+    most of an hour on a CPU without native bfloat16) and the relmogen-d update under glibc's own
+    malloc thresholds against ``keep_freed_memory`` (``bench_qmap_update_allocator``)."""
     presets = ("cpu", "paper") if probes else ("cpu",)
     runs = []
     for preset in presets:
@@ -136,6 +141,7 @@ def bench_train(task: str = "PushDoorNav", updates: int = 10, advance=None, subg
         training_run_d_bf16 = bench_training_run(task, "cpu", subgoals, algo="relmogen-d", overrides=BF16)
         result.update({"qmap_resolutions": bench_qmap_resolutions(task, updates),
                        "qmap_precisions": bench_qmap_precisions(task, updates),
+                       "qmap_update_allocator": bench_qmap_update_allocator(task, updates),  # ~30 s
                        "training_run_relmogen_d_bf16": training_run_d_bf16,
                        "relmogen_d_bf16_episodes_per_cpu_hour": training_run_d_bf16["episodes_per_cpu_hour"]})
     return result
@@ -234,43 +240,38 @@ SAC_UPDATE_VARIANTS = {  # name: (the step before issue 58, glibc keeps freed me
 }
 
 
-def bench_sac_update_variants(task: str = "PushDoorNav", updates: int = 10, rounds: int = 5,
-                              preset: str = "cpu") -> list[dict]:
-    """relmogen-r update CPU seconds (and page faults) per batch of each ``SAC_UPDATE_VARIANTS``,
-    each against ``before`` (median over ``rounds`` of the per-round ratio). glibc's thresholds
-    move with a process's history and cannot be put back once set, so each round forks one child
-    per variant from this process (one model and replay, warmed up under glibc's own thresholds):
-    the variants start from the same memory state and alternate on a shared machine. Linux only."""
+def forked_update_ab(model, batch_size: int, variants: dict, updates: int, rounds: int) -> list[dict]:
+    """Update CPU seconds (median) and page faults per update of ``model`` under each of
+    ``variants`` (name: a function that prepares the model and the process), each against the
+    first (``speedup_vs_<first>``: the median over ``rounds`` of the per-round ratio). glibc's
+    thresholds move with a process's history and cannot be put back once set, so each round forks
+    one child per variant from this process (one model and replay, warmed up under glibc's own
+    thresholds, which this process keeps: ``keep_freed_memory_once`` is disabled here while it
+    runs); the variants start from the same memory state and alternate, in a rotating order, on a
+    shared machine. Linux only."""
     import json
     import os
     import resource
-    import types
 
-    from relmogen.agents import sac
+    from relmogen.agents import allocator
 
-    config, env, model, _ = _model_with_replay(task, "relmogen-r", preset)
-    batch = config.algo_params.batch_size
-    kept_before, sac._kept_freed_memory = sac._kept_freed_memory, True  # this process keeps glibc's own
+    kept_before, allocator._kept_freed_memory = allocator._kept_freed_memory, True
     try:
-        model.train(gradient_steps=3, batch_size=batch)  # fits the input scaling; allocations settle
-        seconds = {name: [] for name in SAC_UPDATE_VARIANTS}
-        faults = {name: [] for name in SAC_UPDATE_VARIANTS}
-        names = list(SAC_UPDATE_VARIANTS)
+        model.train(gradient_steps=3, batch_size=batch_size)  # lazy fits (input scaling); allocations settle
+        names = list(variants)
+        seconds = {name: [] for name in names}
+        faults = {name: [] for name in names}
         for round_index in range(rounds):
             for name in names[round_index % len(names):] + names[:round_index % len(names)]:
-                before, kept = SAC_UPDATE_VARIANTS[name]
                 read, write = os.pipe()
                 child = os.fork()
                 if child == 0:  # measure, report through the pipe, leave without any clean-up
                     try:
                         os.close(read)
-                        if kept:
-                            sac.keep_freed_memory()
-                        if before:
-                            model._gradient_step = types.MethodType(sac_step_before_issue_58, model)
-                        model.train(gradient_steps=2, batch_size=batch)  # copy-on-write faults go here
+                        variants[name](model)
+                        model.train(gradient_steps=2, batch_size=batch_size)  # copy-on-write faults go here
                         start = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-                        cpu_s = _time_updates(model, updates, batch)[1]
+                        cpu_s = _time_updates(model, updates, batch_size)[1]
                         minflt = (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - start) / (updates + 1)
                         os.write(write, json.dumps([cpu_s, minflt]).encode())
                     finally:
@@ -282,14 +283,55 @@ def bench_sac_update_variants(task: str = "PushDoorNav", updates: int = 10, roun
                 seconds[name].append(cpu_s)
                 faults[name].append(minflt)
     finally:
-        sac._kept_freed_memory = kept_before
-        env.close()
+        allocator._kept_freed_memory = kept_before
     rows = [{"variant": name, "update_cpu_s": round(float(np.median(seconds[name])), 4),
-             "page_faults_per_update": round(float(np.median(faults[name])))} for name in SAC_UPDATE_VARIANTS]
+             "page_faults_per_update": round(float(np.median(faults[name])))} for name in names]
     for row in rows:
-        ratios = [b / s for b, s in zip(seconds["before"], seconds[row["variant"]])]  # per round
-        row["speedup_vs_before"] = round(float(np.median(ratios)), 3)
+        ratios = [b / s for b, s in zip(seconds[names[0]], seconds[row["variant"]])]  # per round
+        row[f"speedup_vs_{names[0]}"] = round(float(np.median(ratios)), 3)
     return rows
+
+
+def bench_sac_update_variants(task: str = "PushDoorNav", updates: int = 10, rounds: int = 5,
+                              preset: str = "cpu") -> list[dict]:
+    """relmogen-r update CPU seconds (and page faults) per batch of each ``SAC_UPDATE_VARIANTS``,
+    each against ``before`` (median over ``rounds`` of the per-round ratio), one forked child per
+    variant and round (``forked_update_ab``). Linux only."""
+    import types
+
+    from relmogen.agents.allocator import keep_freed_memory
+
+    def variant(before: bool, kept: bool):
+        def prepare(model) -> None:
+            if kept:
+                keep_freed_memory()
+            if before:
+                model._gradient_step = types.MethodType(sac_step_before_issue_58, model)
+        return prepare
+
+    config, env, model, _ = _model_with_replay(task, "relmogen-r", preset)
+    try:
+        return forked_update_ab(model, config.algo_params.batch_size,
+                                {name: variant(*flags) for name, flags in SAC_UPDATE_VARIANTS.items()},
+                                updates, rounds)
+    finally:
+        env.close()
+
+
+def bench_qmap_update_allocator(task: str = "PushDoorNav", updates: int = 10, rounds: int = 5,
+                                preset: str = "cpu") -> list[dict]:
+    """relmogen-d update CPU seconds (and page faults) per batch under glibc's own malloc
+    thresholds (``glibc_default``) and with ``relmogen.agents.allocator.keep_freed_memory``, one
+    forked child per variant and round (``forked_update_ab``); ``speedup_vs_glibc_default`` is the
+    median of the per-round ratios. Linux only."""
+    from relmogen.agents.allocator import keep_freed_memory
+
+    variants = {"glibc_default": lambda model: None, "keep_freed_memory": lambda model: keep_freed_memory()}
+    config, env, model, _ = _model_with_replay(task, "relmogen-d", preset)
+    try:
+        return forked_update_ab(model, config.algo_params.batch_size, variants, updates, rounds)
+    finally:
+        env.close()
 
 
 QMAP_SETTINGS = ((64, 16), (64, 32), (128, 32))  # (image px, Q): the old cpu head, the cpu preset, the paper's
