@@ -252,7 +252,7 @@ def _print_recipe_listing(rows: list[dict]) -> None:
         table.add_column(column, no_wrap=column == "recipe")
     for row in rows:
         table.add_row(row["recipe"], row["metric"], f"{row['paper']:.2f}", row["ours"], str(row["seeds"]),
-                      str(row["stages"]), str(row["episodes_per_seed"]), f"{row['cpu_hours_per_seed']:.2f}")
+                      str(row["stages"]), str(row["episodes_per_seed"]), str(row["cpu_hours_per_seed"]))
     Console(width=160).print(table)
 
 

@@ -129,7 +129,7 @@ class Recipe(_Strict):
     stages: dict[str, Stage] = Field(min_length=1)
     evaluation: Evaluation
     paper: Paper
-    ours: Ours
+    ours: Ours | None = None  # None: a cell not yet run (relmogen reproduce makes its first figure)
 
     @model_validator(mode="after")
     def _stages_refer_backwards(self) -> Recipe:
@@ -142,7 +142,7 @@ class Recipe(_Strict):
             seen.append(name)
             for key in stage.set:
                 check_setting_key(key, self.algo, name)
-        unknown = sorted(set(self.ours.runs) - set(self.stages))
+        unknown = sorted(set(self.ours.runs if self.ours else ()) - set(self.stages))
         if unknown:
             raise ValueError(f"ours.runs names unknown stages {', '.join(unknown)}; stages: {', '.join(self.stages)}")
         return self
@@ -326,10 +326,11 @@ def listing_rows() -> list[dict]:
     rows = []
     for name in available_recipes():
         recipe = load_recipe(name)
+        ours = recipe.ours
         rows.append({"recipe": name, "title": recipe.title, "metric": recipe.paper.metric,
-                     "paper": recipe.paper.value, "ours": f"{recipe.ours.mean:.2f} / {recipe.ours.std:.2f} / "
-                                                           f"{recipe.ours.max:.2f}",
+                     "paper": recipe.paper.value,
+                     "ours": f"{ours.mean:.2f} / {ours.std:.2f} / {ours.max:.2f}" if ours else "not run yet",
                      "seeds": len(recipe.seeds), "stages": len(recipe.stages),
-                     "episodes_per_seed": recipe.ours.episodes_per_seed,
-                     "cpu_hours_per_seed": recipe.ours.cpu_hours_per_seed})
+                     "episodes_per_seed": ours.episodes_per_seed if ours else "-",
+                     "cpu_hours_per_seed": ours.cpu_hours_per_seed if ours else "-"})
     return rows
