@@ -14,6 +14,8 @@ Two additions of ours, both measured (results/table1/*/COMMANDS.md):
 * ``image_shift`` > 0 applies DrQ's random shift (pad by n pixels, crop back at a random
   offset, per sample) to the images while ``augmenting`` is set, which SAC does for its
   gradient steps only.
+
+``image_encoder="keypoints"`` swaps the image branch for ``agents/keypoints.py``'s (an option).
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ import torch as th
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 from torch.nn import functional as F
+
+from relmogen.agents.keypoints import keypoint_image_branch
 
 DEPTH_SCALE = 3.0  # metres: the camera's maximum range maps to 1.0
 
@@ -37,6 +41,9 @@ def _image_branch(in_channels: int, height: int, width: int, out_dim: int) -> tu
     with th.no_grad():
         flat = conv(th.zeros(1, in_channels, height, width)).shape[1]
     return conv, nn.Sequential(nn.Linear(flat, out_dim), nn.ReLU())
+
+
+IMAGE_BRANCHES = {"paper": _image_branch, "keypoints": keypoint_image_branch}
 
 
 def _scan_branch(num_rays: int, out_dim: int) -> nn.Module:
@@ -60,12 +67,14 @@ class SGPREncoder(BaseFeaturesExtractor):
     """
 
     def __init__(self, observation_space: gym.spaces.Dict, image_dim: int = 256, scan_dim: int = 128,
-                 task_dim: int = 128, image_shift: int = 0):
+                 task_dim: int = 128, image_shift: int = 0, image_encoder: str = "paper"):
         rgb_shape = observation_space["rgb"].shape
         self.channels_first = rgb_shape[0] == 3
         height, width = (rgb_shape[1:] if self.channels_first else rgb_shape[:2])
         super().__init__(observation_space, features_dim=image_dim + scan_dim + task_dim)
-        self.image_conv, self.image_fc = _image_branch(4, height, width, image_dim)
+        if image_encoder not in IMAGE_BRANCHES:
+            raise ValueError(f"image_encoder must be one of {sorted(IMAGE_BRANCHES)}, got {image_encoder!r}")
+        self.image_conv, self.image_fc = IMAGE_BRANCHES[image_encoder](4, height, width, image_dim)
         # channels-last convolutions (oneDNN on CPU): updates 64 -> 60 ms of CPU at 64 px, batch 64
         self.image_conv.to(memory_format=th.channels_last)
         self.scan = _scan_branch(observation_space["scan"].shape[0], scan_dim)

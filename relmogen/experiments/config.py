@@ -153,6 +153,7 @@ class SACConfig(AlgoConfig):
     ent_coef_min: float = Field(0.0, ge=0)  # floor under the learned temperature; 0 = none (SB3)
     target_entropy: float | None = None  # None = SB3's -dim(A)
     image_shift: int = Field(0, ge=0)  # DrQ's random shift of the images in each batch (pixels; 0 = off)
+    image_encoder: Literal["paper", "keypoints"] = "paper"  # keypoints: agents/keypoints.py (ours)
 
 
 class OACConfig(SACConfig):

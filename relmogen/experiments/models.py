@@ -45,7 +45,8 @@ def build_model(config: TrainConfig, env):
     policy_kwargs = dict(net_arch=params.net_arch, optimizer_kwargs={"fused": True})
     if config.env.obs_mode == "rgbd":  # state: SB3's CombinedExtractor flattens the vector
         policy_kwargs.update(features_extractor_class=SGPREncoder, normalize_images=False,
-                             features_extractor_kwargs={"image_shift": params.image_shift})
+                             features_extractor_kwargs={"image_shift": params.image_shift,
+                                                        "image_encoder": params.image_encoder})
     common = dict(env=env, learning_rate=params.learning_rate, buffer_size=params.buffer_size,
                   batch_size=params.batch_size, tau=params.tau, gamma=params.gamma,
                   learning_starts=params.learning_starts, train_freq=params.train_freq,
