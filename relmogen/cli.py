@@ -24,6 +24,7 @@
     relmogen report RUN_DIRS... --out DIR [--checkpoint latest|best] [--curves-only]
     relmogen report --table1 DIR
     relmogen report --table2 DIR --out OUT
+    relmogen report --figure4 DIR [--out OUT]
     relmogen viz qmap RUN_DIR_OR_CHECKPOINT [--task T] [--out DIR] [--states N] [--seed S] [--drive oracle]
     relmogen viz subgoals RUN_DIR_OR_CHECKPOINT|POLICY_DIR [--checkpoint latest|best|PATH] [--episodes N] [--seed S]
                           [--stochastic] [--robot NAME] [--out PNG]
@@ -327,8 +328,18 @@ def cmd_report(args: argparse.Namespace) -> int:
     from relmogen.experiments.table1 import write_table1
     from relmogen.experiments.table2 import write_table2
 
-    if args.curves_only and (args.table1 is not None or args.table2 is not None):
-        raise ValueError("--curves-only redraws the curves.png of RUN_DIR... --out DIR; not with --table1/--table2")
+    if args.curves_only and (args.table1 is not None or args.table2 is not None or args.figure4 is not None):
+        raise ValueError("--curves-only redraws the curves.png of RUN_DIR... --out DIR; not with --table1/--table2/"
+                         "--figure4")
+    if args.figure4 is not None:
+        from relmogen.experiments.figure4 import write_figure4
+
+        if args.runs or args.table1 is not None or args.table2 is not None:
+            raise ValueError("report --figure4 DIR [--out OUT] takes neither RUN_DIRs, --table1 nor --table2")
+        paths = write_figure4(Path(args.figure4), Path(args.out) if args.out is not None else None)
+        print(paths.pop("markdown").read_text())
+        print(json.dumps({task: str(path) for task, path in paths.items()}))
+        return 0
     if args.table1 is not None:
         if args.runs or args.out is not None or args.table2 is not None:
             raise ValueError("report --table1 DIR takes neither RUN_DIRs, --table2 nor --out")
@@ -655,11 +666,15 @@ def _add_viz(sub) -> None:
 def _add_report(sub) -> None:
     report = sub.add_parser("report", help="table (mean/std/max over seeds) and curves of runs")
     report.add_argument("runs", nargs="*", metavar="RUN_DIR", help="run directories, one or more seeds per algorithm")
-    report.add_argument("--out", help="where table.md, table.json and curves.png go")
+    report.add_argument("--out", help="where table.md, table.json and curves.png go (with --figure4: the figures)")
     report.add_argument("--table1", metavar="DIR", help="write DIR/README.md, the paper's Table I beside ours, "
                                                         "from DIR/*/table.json (one report per task and algorithm)")
     report.add_argument("--table2", metavar="DIR", help="with --out OUT: the paper's Tables II / A.4 (planner swap) and "
                                                         "A.2 (arm collision checking) beside ours, from DIR/*/table.json")
+    report.add_argument("--figure4", metavar="DIR", help="the paper's Fig. 4 for the reward-only cells of the Table I "
+                                                         "folder DIR: training return and Table I metric against "
+                                                         "training episodes, OUT/figure4_<Task>.png and OUT/figure4.md "
+                                                         "(--out OUT, default DIR/figure4)")
     report.add_argument("--checkpoint", choices=["latest", "best"], default="latest",
                         help="the reference table evaluates each run's latest checkpoint (default) or the best one "
                              "its periodic evaluations chose (an early-stopping protocol, shown as such in Table I)")

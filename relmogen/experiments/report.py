@@ -386,8 +386,8 @@ def trailing_mean(values: np.ndarray, window: int) -> np.ndarray:
     return np.divide(total, count, out=np.full(len(values), np.nan), where=count > 0)
 
 
-def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray) -> np.ndarray:
-    smooth = trailing_mean(curve[key], CURVE_SMOOTHING)
+def _smoothed_on_grid(curve: dict, key: str, grid: np.ndarray, window: int = CURVE_SMOOTHING) -> np.ndarray:
+    smooth = trailing_mean(curve[key], window)
     known = np.isfinite(smooth) & np.isfinite(curve["episode"])
     if not known.any():
         return np.full(len(grid), np.nan)
@@ -418,13 +418,15 @@ ITEMS_PANEL = Panel("closed_10", "episode", f"items closed per training episode\
                     "training episodes", "closed_10")
 
 
-def _mean_and_std(runs: list[dict], key: str, axis_key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Seed mean and std of the smoothed ``key`` on a common grid of episodes or hours."""
+def _mean_and_std(runs: list[dict], key: str, axis_key: str,
+                  window: int = CURVE_SMOOTHING) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Seed mean and std of the ``key`` smoothed over ``window`` episodes (``trailing_mean``) on a
+    common grid of episodes or hours."""
     curves = [dict(r["curve"], hours=r["curve"]["wall_time_s"] / 3600) for r in runs]
     last = max(c[axis_key].max(initial=0) for c in curves)
     start = 1.0 if axis_key == "episode" else 0.0
     grid = np.linspace(start, max(last, start + 1e-6), 200)
-    values = np.array([_smoothed_on_grid(dict(c, episode=c[axis_key]), key, grid) for c in curves])
+    values = np.array([_smoothed_on_grid(dict(c, episode=c[axis_key]), key, grid, window) for c in curves])
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # grid points no seed reached yet
         return grid, np.nanmean(values, axis=0), np.nanstd(values, axis=0)
