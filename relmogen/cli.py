@@ -700,7 +700,7 @@ def _add_bench(sub) -> None:
                        help="train: subgoals of the real relmogen-r cpu training run, counted from its first update")
     bench.add_argument("--samples", type=_positive_int, default=200, help="env: joint-velocity steps")
     bench.add_argument("--image-size", type=_positive_int, default=128, help="env: camera resolution")
-    bench.add_argument("--subgoal-samples", type=_non_negative_int, default=20,
+    bench.add_argument("--subgoal-samples", type=_non_negative_int, default=40,
                        help="env: lifted steps of each kind, base and arm (0 skips them)")
     bench.add_argument("--problems", type=_positive_int, default=PLANNER_PROBLEMS_DEFAULT,
                        help=f"planner: problems per category (default {PLANNER_PROBLEMS_DEFAULT})")
