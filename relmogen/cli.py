@@ -411,8 +411,15 @@ def _bench_planner(args: argparse.Namespace) -> int:
     return 0
 
 
+class _OneLineErrors(argparse.ArgumentParser):
+    """argparse's usage errors as the CLI's other errors: one line, exit code 2, with the help to read."""
+
+    def error(self, message: str):
+        self.exit(2, f"relmogen: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="relmogen", description=__doc__,
+    parser = _OneLineErrors(prog="relmogen", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
                         help="print the package version and exit")
@@ -510,8 +517,8 @@ def _add_backend_arguments(parser: argparse.ArgumentParser, unit: str) -> None:
                         help=f"ray: each {unit} a Ray task (default); serial: one after another, without Ray")
     parser.add_argument("--address", default=None, metavar="ADDR",
                         help="an existing Ray cluster (e.g. HEAD:6379) instead of a local Ray started here")
-    parser.add_argument("--cpus-per-run", type=_positive_int, default=1,
-                        help=f"Ray CPUs reserved per {unit} (default 1)")
+    parser.add_argument("--cpus-per-run", type=_positive_float, default=1,
+                        help=f"Ray CPUs reserved per {unit} (default 1; 0.5 runs two per core)")
 
 
 def _add_reproduce(sub) -> None:
@@ -723,6 +730,13 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
 def _non_negative_int(text: str) -> int:
     value = int(text)
     if value < 0:
@@ -735,6 +749,12 @@ def _non_negative_float(text: str) -> float:
     if not (math.isfinite(value) and value >= 0):
         raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return value
+
+
+# argparse names a type in its errors ("invalid positive integer value: 'x'")
+for _type, _name in ((_positive_int, "positive integer"), (_positive_float, "positive number"),
+                     (_non_negative_int, "non-negative integer"), (_non_negative_float, "non-negative number")):
+    _type.__name__ = _name
 
 
 def main(argv: list[str] | None = None) -> int:

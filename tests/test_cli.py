@@ -103,6 +103,8 @@ ERRORS = {
                                         "not relmogen-r"),
     "another algorithm's key on resume": (["train", "--resume", "{run}", "--set", "algo.hrl4in_k=5"],
                                           "algo.hrl4in_k: hrl4in only, not sac"),
+    "no CPUs per run": (["sweep", "--tasks", "PointNav", "--algos", "sac", "--seeds", "0", "--out", "runs",
+                         "--cpus-per-run", "0"], "--cpus-per-run: must be a positive number, got 0"),
     "invalid value": (["train", "--task", "PointNav", "--algo", "sac", "--preset", "tiny", "--out", "runs",
                        "--set", "algo.gamma=2"], "invalid configuration: algo.gamma: Input should be less than"),
 }

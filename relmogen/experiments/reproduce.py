@@ -264,7 +264,7 @@ def record_stages(manifest: dict, on_finish):
 
 
 def run_reproduce(recipe_arg: str, out: Path, seeds: list[int] | None = None, resume: bool = False,
-                  backend: str = "ray", address: str | None = None, cpus_per_run: int = 1,
+                  backend: str = "ray", address: str | None = None, cpus_per_run: float = 1,
                   quiet: bool = False, publish: Path | None = None) -> dict:
     """Train, evaluate and report a recipe in ``out`` (and publish it in ``publish``); returns the
     manifest (its ``report``: OUT/README.md or None; ``published``: where the copy went)."""

@@ -181,7 +181,7 @@ class SerialBackend:
 
     name = "serial"
 
-    def __init__(self, cpus_per_run: int = 1):
+    def __init__(self, cpus_per_run: float = 1):
         self.context = mp.get_context("spawn")
 
     def run(self, jobs: list[tuple[str, Callable, tuple]], on_start, on_finish, poll=lambda: None) -> None:
@@ -241,7 +241,7 @@ class RayBackend:
 
     name = "ray"
 
-    def __init__(self, cpus_per_run: int = 1, address: str | None = None, num_cpus: int | None = None):
+    def __init__(self, cpus_per_run: float = 1, address: str | None = None, num_cpus: int | None = None):
         import ray
 
         self.ray, self.cpus_per_run, self.started = ray, cpus_per_run, False
@@ -280,7 +280,7 @@ class RayBackend:
             self.ray.shutdown()
 
 
-def make_backend(backend: str, cpus_per_run: int = 1, address: str | None = None):
+def make_backend(backend: str, cpus_per_run: float = 1, address: str | None = None):
     if backend == "serial":
         if address:
             raise ValueError("--address names a Ray cluster; use it with --backend ray")
@@ -343,7 +343,7 @@ def progress_table(out: Path, manifest: dict):
 
 # ---------------------------------------------------------------------------- sweep
 def run_sweep(out: Path, spec: SweepSpec | None = None, resume: bool = False, backend: str = "ray",
-              address: str | None = None, cpus_per_run: int = 1, eval_episodes: int = EVAL_EPISODES,
+              address: str | None = None, cpus_per_run: float = 1, eval_episodes: int = EVAL_EPISODES,
               quiet: bool = False) -> dict:
     """Train every run of ``spec`` (or, with ``resume``, of ``out/sweep.json``), then evaluate and
     report the finished ones. Returns the manifest."""
