@@ -506,7 +506,8 @@ def build_hrl4in(config, env, device: str) -> HRL4IN:
         raise ValueError("hrl4in trains on environments wrapped in RobotStateObservation (robot_state missing)")
     high_space, low_space = level_spaces(env.observation_space, settings)
     policy_kwargs = dict(features_extractor_class=SGPREncoder, normalize_images=False, net_arch=params.net_arch,
-                         features_extractor_kwargs={"image_shift": params.image_shift})
+                         features_extractor_kwargs={"image_shift": params.image_shift},
+                         **({"critic_layer_norm": True} if params.critic_layer_norm else {}))
     common = dict(tau=params.tau, ent_coef=f"auto_{params.ent_coef_init}", ent_coef_min=params.ent_coef_min,
                   policy_kwargs=policy_kwargs, replay_buffer_class=CompactDictReplayBuffer, device=device, verbose=0)
     high_batch = params.hrl4in_high_batch_size or params.batch_size

@@ -43,17 +43,29 @@ from stable_baselines3.common.preprocessing import preprocess_obs
 from stable_baselines3.sac.policies import MultiInputPolicy
 from torch.nn import functional as F
 
+from relmogen.agents.addons.critic_layer_norm import layer_normalise
 from relmogen.agents.allocator import keep_freed_memory_once
 from relmogen.agents.networks import SGPREncoder
 from relmogen.agents.replay import stored_rows
 
 
 class SharedEncoderSACPolicy(MultiInputPolicy):
-    """One features extractor for actor and critic; the critic's optimizer trains it."""
+    """One features extractor for actor and critic; the critic's optimizer trains it.
+    ``critic_layer_norm``: the critics' Q networks with LayerNorm (``addons.critic_layer_norm``)."""
 
-    def __init__(self, *args: Any, **kwargs: Any):
+    def __init__(self, *args: Any, critic_layer_norm: bool = False, **kwargs: Any):
         kwargs["share_features_extractor"] = True
+        self.critic_layer_norm = critic_layer_norm  # read by make_critic, which super().__init__ calls
         super().__init__(*args, **kwargs)
+
+    def make_critic(self, features_extractor=None):
+        critic = super().make_critic(features_extractor)
+        if self.critic_layer_norm:
+            layer_normalise(critic)
+        return critic
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        return dict(super()._get_constructor_parameters(), critic_layer_norm=self.critic_layer_norm)
 
     def _build(self, lr_schedule) -> None:
         super()._build(lr_schedule)

@@ -154,6 +154,7 @@ class SACConfig(AlgoConfig):
     target_entropy: float | None = None  # None = SB3's -dim(A)
     image_shift: int = Field(0, ge=0)  # DrQ's random shift of the images in each batch (pixels; 0 = off)
     image_encoder: Literal["paper", "keypoints"] = "paper"  # keypoints: agents/keypoints.py (ours)
+    critic_layer_norm: bool = False  # LayerNorm in the critics' hidden layers (RLPD; agents/addons/critic_layer_norm.py)
 
 
 class OACConfig(SACConfig):

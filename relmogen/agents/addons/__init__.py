@@ -1,4 +1,5 @@
-"""Optional research add-ons to relmogen-d's masked Double DQN (``relmogen/agents/dqn.py``).
+"""Optional research add-ons to relmogen-d's masked Double DQN (``relmogen/agents/dqn.py``) and,
+where the table says so, to the SAC family (``relmogen/agents/sac.py``).
 
 All ours and off by default; each module says what it adds, where the idea comes from and
 which results folder measured it.
@@ -14,6 +15,7 @@ which results folder measured it.
 | ``prioritized_replay``   | ``algo.priority_alpha``, ``_beta``| a replay mixin and the loss's weights   |
 | ``skip_no_ops``          | ``relmogen eval --skip-no-ops`` | at test time only (SGP-R too)             |
 | ``critic_select``        | ``relmogen eval --critic-select``| at test time only, SGP-R / SAC / OAC     |
+| ``critic_layer_norm``    | ``algo.critic_layer_norm``      | SAC family: ``SharedEncoderSACPolicy.make_critic`` |
 
 ``dqn.py`` composes them: ``QMapReplayBuffer`` puts the replay mixins in front of the plain
 ``CellMaskReplayBuffer``, and ``RelmogenDQN`` builds its loss terms and labeller from its
