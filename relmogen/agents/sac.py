@@ -167,6 +167,18 @@ class SharedEncoderSAC(SAC):
             with th.no_grad():
                 next_features = critic.features_extractor(next_observations)
                 next_target_features = target.features_extractor(next_observations)
+        actions_pi, log_prob, ent_coef = self._critic_update(data, features, next_features, next_target_features, logs)
+        actor_loss = self._actor_loss(features, actions_pi, log_prob, ent_coef, logs)
+        self.actor.optimizer.zero_grad()
+        # the actor's parameters only: the critic's weight gradients would be discarded unused
+        actor_loss.backward(inputs=self._actor_parameters())
+        self.actor.optimizer.step()
+        polyak_update_all(*self._polyak_parameters(), self.tau)
+
+    def _critic_update(self, data, features: th.Tensor, next_features: th.Tensor, next_target_features: th.Tensor,
+                       logs: dict[str, list[float]]) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        """The temperature's and the critics' steps of one gradient step; returns the actor's
+        actions, their log-probabilities and the temperature, for the actor's step."""
         actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
         log_prob = log_prob.reshape(-1, 1)
         ent_coef = self._entropy_step(log_prob, logs)
@@ -176,15 +188,15 @@ class SharedEncoderSAC(SAC):
         self.critic.optimizer.zero_grad()
         critic_loss.backward()
         self.critic.optimizer.step()
+        logs["critic_loss"].append(critic_loss.item())
+        return actions_pi, log_prob, ent_coef
+
+    def _actor_loss(self, features: th.Tensor, actions_pi: th.Tensor, log_prob: th.Tensor, ent_coef: th.Tensor,
+                    logs: dict[str, list[float]]) -> th.Tensor:
         q_pi = th.cat(_q_from_features(self.critic, features.detach(), actions_pi), dim=1)
         actor_loss = (ent_coef * log_prob - th.min(q_pi, dim=1, keepdim=True)[0]).mean()
-        self.actor.optimizer.zero_grad()
-        # the actor's parameters only: the critic's weight gradients would be discarded unused
-        actor_loss.backward(inputs=self._actor_parameters())
-        self.actor.optimizer.step()
-        polyak_update_all(*self._polyak_parameters(), self.tau)
-        logs["critic_loss"].append(critic_loss.item())
         logs["actor_loss"].append(actor_loss.item())
+        return actor_loss
 
     @th.no_grad()
     def _td_target(self, data, next_features: th.Tensor, next_target_features: th.Tensor,

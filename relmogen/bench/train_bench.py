@@ -203,9 +203,8 @@ def sac_step_before_issue_58(self, data, logs: dict[str, list[float]]) -> None:
     ``polyak_update``): the reference of ``bench_sac_update_variants`` and of
     tests/agents/test_sac_update_equivalence.py, which checks that today's step equals it bit for bit."""
     from stable_baselines3.common.utils import polyak_update
-    from torch.nn import functional as F
 
-    from relmogen.agents.sac import _actor_from_features, _q_from_features, augmented
+    from relmogen.agents.sac import augmented
 
     critic, target = self.critic, self.critic_target
     with augmented([critic.features_extractor, target.features_extractor]):
@@ -213,23 +212,12 @@ def sac_step_before_issue_58(self, data, logs: dict[str, list[float]]) -> None:
         with th.no_grad():
             next_features = critic.extract_features(data.next_observations, critic.features_extractor)
             next_target_features = target.extract_features(data.next_observations, target.features_extractor)
-    actions_pi, log_prob = _actor_from_features(self.actor, features.detach())
-    log_prob = log_prob.reshape(-1, 1)
-    ent_coef = self._entropy_step(log_prob, logs)
-    target_q = self._td_target(data, next_features, next_target_features, ent_coef)
-    current_q = _q_from_features(self.critic, features, data.actions)
-    critic_loss = 0.5 * sum(F.mse_loss(q, target_q) for q in current_q)
-    self.critic.optimizer.zero_grad()
-    critic_loss.backward()
-    self.critic.optimizer.step()
-    q_pi = th.cat(_q_from_features(self.critic, features.detach(), actions_pi), dim=1)
-    actor_loss = (ent_coef * log_prob - th.min(q_pi, dim=1, keepdim=True)[0]).mean()
+    actions_pi, log_prob, ent_coef = self._critic_update(data, features, next_features, next_target_features, logs)
+    actor_loss = self._actor_loss(features, actions_pi, log_prob, ent_coef, logs)
     self.actor.optimizer.zero_grad()
     actor_loss.backward()
     self.actor.optimizer.step()
     polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
-    logs["critic_loss"].append(critic_loss.item())
-    logs["actor_loss"].append(actor_loss.item())
 
 
 SAC_UPDATE_VARIANTS = {  # name: (the step before issue 58, glibc keeps freed memory)
