@@ -174,9 +174,15 @@ def read_reruns(folder: Path) -> list[dict]:
         for row in json.loads(path.read_text())["rows"]:
             if row["reference"]:
                 reruns.append(dict(row, source=path.parents[2].name, label=path.parent.name,
-                                   host=(record.get("host") or {}).get("cpu_model", "unknown"),
+                                   host=host_label(record.get("host") or {}),
                                    commit=record["recipe"].get("commit")))
     return reruns
+
+
+def host_label(host: dict) -> str:
+    """"AMD EPYC (avx512)": the CPU model and the host kind, which decides the CPU hours."""
+    model = host.get("cpu_model", "unknown")
+    return f"{model} ({host['host_kind']})" if host.get("host_kind") else model
 
 
 def reruns_table(rows: list[dict], reruns: list[dict]) -> str:

@@ -71,6 +71,7 @@ def test_a_staged_recipe_trains_each_stage_then_evaluates_and_reports_without_ra
     published_runs = list((reruns[0] / "runs").rglob("config.yaml"))
     assert len(published_runs) == 2  # the first stage's run and the second's (continued by the third)
     assert not list(reruns[0].rglob("model.zip")) and not list(reruns[0].rglob("events.out.tfevents*"))
-    assert json.loads((reruns[0] / "rerun.json").read_text())["host"]["host_kind"]
+    host = json.loads((reruns[0] / "rerun.json").read_text())["host"]
     readme = (table1 / "README.md").read_text()
     assert "## Reruns from the recipes" in readme and f"| PointNav__relmogen-r | SR |" in readme
+    assert f"| {host['cpu_model']} ({host['host_kind']}) |" in readme  # the host kind decides the CPU hours
