@@ -14,6 +14,7 @@ Markdown table or JSON. The commands that produced each committed figure are in 
 - ``arm``: the arm motion generator under ``ArmConfig`` settings (step cost, oracle figures, plans
   before a door, what an IK solution collides with);
 - ``reach``: arm plans by distance, the reach mask against IK, button presses around the button;
+- ``goal_pixels``: where a TabletopReachM policy's first arm subgoal lands against the marker in the image;
 - ``qvalues``: a relmogen-d checkpoint's Q maps at oracle or greedy states, and the oracle-cell table;
 - ``replay``: what a saved replay holds, and extra updates on it without new data.
 """

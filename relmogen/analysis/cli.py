@@ -187,6 +187,18 @@ def cmd_button_presses(args) -> int:
     return emit(args, rows, summary)
 
 
+def cmd_goal_pixels(args) -> int:
+    from relmogen.analysis.goal_pixels import goal_pixels
+
+    result = goal_pixels(args.run, args.checkpoint, args.episodes, args.seed)
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(markdown_table([{"axis": axis, **result[axis]} for axis in ("column", "row")]))
+    print(json.dumps({key: value for key, value in result.items() if key not in ("column", "row")}))
+    return 0
+
+
 def cmd_qvalues(args) -> int:
     from relmogen.analysis import qvalues
 
@@ -356,6 +368,14 @@ def add_analyse_parser(sub) -> None:
     p.add_argument("--radius", type=int, default=1, help="cells around the button's cell (default 1: 3 x 3)")
     _json_flag(p)
     p.set_defaults(func=cmd_button_presses)
+
+    p = topics.add_parser("goal-pixels", help="a TabletopReachM relmogen-r policy's first arm pixel against the goal's")
+    p.add_argument("run", metavar="RUN_DIR_OR_CHECKPOINT", help="a TabletopReachM relmogen-r run or checkpoint folder")
+    p.add_argument("--checkpoint", default="latest", help="which model of a run: latest, best or a folder name")
+    p.add_argument("--episodes", type=_positive, default=40, help="episodes (default 40)")
+    p.add_argument("--seed", type=int, default=100_000, help="seed of the first episode (default 100000)")
+    _json_flag(p)
+    p.set_defaults(func=cmd_goal_pixels)
 
     p = topics.add_parser("qvalues", help="a relmogen-d checkpoint's Q maps at oracle states or along greedy episodes")
     p.add_argument("mode", choices=("oracle", "greedy"), help="states before the oracle's pushes, or greedy episodes")
