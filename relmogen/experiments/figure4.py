@@ -30,9 +30,9 @@ import numpy as np  # noqa: E402
 
 from relmogen.experiments.config import read_config  # noqa: E402
 from relmogen.experiments.finetune import read_init_from  # noqa: E402
-from relmogen.experiments.report import (CURVES_DPI, _mean_and_std, markdown_grid, read_curve,  # noqa: E402
+from relmogen.experiments.report import (CURVES_DPI, markdown_grid, mean_and_std, read_curve,  # noqa: E402
                                          trailing_mean, training_of)
-from relmogen.experiments.table1 import ALGORITHMS, TASKS, _position, metric_of, read_tables  # noqa: E402
+from relmogen.experiments.table1 import ALGORITHMS, TASKS, catalogue_position, metric_of, read_tables  # noqa: E402
 
 FIGURE4_SMOOTHING = 100  # training episodes in each seed's rolling mean
 ALGORITHM_COLOURS = dict(zip(ALGORITHMS, ("C0", "C1", "C2", "C3", "C4")))  # the same in every task's figure
@@ -126,8 +126,8 @@ def read_cells(folder: Path) -> list[Cell]:
         seeds = sorted((seed_curve(cell, run) for run in final_runs(cell)), key=lambda s: s.seed)
         if seeds:
             cells.append(Cell(references[0]["task"], references[0]["algorithm"], cell, seeds))
-    return sorted(cells, key=lambda c: (_position(TASKS, c.task), c.task, _position(ALGORITHMS, c.algorithm),
-                                        c.algorithm))
+    return sorted(cells, key=lambda c: (catalogue_position(TASKS, c.task), c.task,
+                                        catalogue_position(ALGORITHMS, c.algorithm), c.algorithm))
 
 
 def metric_column(task: str) -> tuple[str, str]:
@@ -145,7 +145,7 @@ def colour_of(algorithm: str) -> str:
 
 def _draw(ax, cell: Cell, key: str) -> None:
     runs = [{"curve": seed.curve} for seed in cell.seeds]
-    grid, mean, std = _mean_and_std(runs, key, "episode", FIGURE4_SMOOTHING)
+    grid, mean, std = mean_and_std(runs, key, "episode", FIGURE4_SMOOTHING)
     count = len(cell.seeds)
     colour = colour_of(cell.algorithm)
     ax.plot(grid, mean, color=colour, label=f"{cell.algorithm} ({count} seed{'s' if count != 1 else ''})")

@@ -418,7 +418,7 @@ ITEMS_PANEL = Panel("closed_10", "episode", f"items closed per training episode\
                     "training episodes", "closed_10")
 
 
-def _mean_and_std(runs: list[dict], key: str, axis_key: str,
+def mean_and_std(runs: list[dict], key: str, axis_key: str,
                   window: int = CURVE_SMOOTHING) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Seed mean and std of the ``key`` smoothed over ``window`` episodes (``trailing_mean``) on a
     common grid of episodes or hours."""
@@ -481,7 +481,7 @@ def task_panels(runs: list[dict]) -> list[Panel]:
 
 
 def _draw_group(ax, algo: str, runs: list[dict], panel: Panel, with_labels: bool) -> None:
-    grid, mean, std = _mean_and_std(runs, panel.key, panel.axis_key)
+    grid, mean, std = mean_and_std(runs, panel.key, panel.axis_key)
     line, = ax.plot(grid, mean, label=f"{algo}, training ({seeds_text(len(runs))})" if with_labels else None,
                     marker="o" if np.isfinite(mean).sum() == 1 else None)
     if len(runs) > 1:

@@ -115,15 +115,15 @@ def metric_of(task: str) -> tuple[str, str]:
     return PAPER_METRIC.get(task, ("success_rate", "SR"))
 
 
-def _position(names: tuple[str, ...], name: str) -> int:
+def catalogue_position(names: tuple[str, ...], name: str) -> int:
     """Where the name stands among the paper's names; after them all when it is not one."""
     return names.index(name) if name in names else len(names)
 
 
 def paper_order(row: dict) -> tuple:
     """A sort key: the paper's task order, then its algorithm order, then the source folder."""
-    return (_position(TASKS, row["task"]), row["task"], _position(ALGORITHMS, row["algorithm"]), row["algorithm"],
-            row["source"])
+    return (catalogue_position(TASKS, row["task"]), row["task"], catalogue_position(ALGORITHMS, row["algorithm"]),
+            row["algorithm"], row["source"])
 
 
 def _task_line(task: str, comparable: dict[tuple[str, str], dict]) -> list[str]:
