@@ -5,12 +5,9 @@ import math
 
 import numpy as np
 import pytest
-import torch as th
 
 from relmogen.analysis.goal_pixels import correlation, pixel_statistics
 from relmogen.cli import main
-from relmogen.experiments.config import resolve_config
-from relmogen.experiments.train import train
 
 GOAL_COLS = np.array([10.3, 20.7, 31.0, 40.2, 52.9])
 GOAL_ROWS = np.array([30.1, 33.4, 29.8, 36.0, 31.7])
@@ -37,16 +34,6 @@ def test_a_constant_policy_is_off_by_the_goals_mean_absolute_deviation_with_no_c
     assert correlation([1.0], [2.0]) is None and correlation([1, 2, 3], [3, 2, 1]) == pytest.approx(-1.0)
     with pytest.raises(ValueError, match="one length"):
         pixel_statistics([1, 2], [1, 2], [1], [1], [0])
-
-
-@pytest.fixture(scope="module")
-def tiny_tabletop_run(tmp_path_factory):
-    """A TabletopReachM relmogen-r run of 1 episode (``tiny`` preset) with its checkpoint."""
-    threads = th.get_num_threads()
-    run = train(resolve_config("TabletopReachM", "relmogen-r", seed=0, preset="tiny", episodes=1),
-                tmp_path_factory.mktemp("tiny_ttr"), quiet=True)
-    th.set_num_threads(threads)
-    return run
 
 
 def test_the_topic_runs_a_tiny_tabletop_policy_and_refuses_other_runs(tiny_tabletop_run, tiny_sac_run, capsys):
