@@ -172,6 +172,39 @@ def _milestones(runs: list[dict]) -> dict[str, list[int | None]]:
     return {f"{threshold:g}": [reached(run, threshold) for run in runs] for threshold in SR_MILESTONES}
 
 
+FINAL_FRACTIONS = (0.5, 0.9)  # the training episodes at which periodic evaluation first reached these of the final figure
+
+
+def headline_metric(task: str) -> str:
+    """The evaluation key a task is judged by in Table I: items closed (``closed_10``) for the
+    arrangement tasks, the success rate for the others."""
+    return "closed_10" if has_metric(task, "closed_10") else "success_rate"
+
+
+def episodes_to_fraction_of_final(periodic: list[dict], metric: str, final: float | None,
+                                  fraction: float) -> int | None:
+    """The training episodes at the first periodic evaluation whose ``metric`` reached ``fraction``
+    of ``final`` (the seed's final evaluation); None if none did, or if the final figure is not
+    above 0 (then every evaluation "reaches" it and the episode says nothing)."""
+    if final is None or final <= 0.0:
+        return None
+    return next((int(e["episode"]) for e in periodic if e.get(metric, 0.0) >= fraction * final), None)
+
+
+def _final_fraction_milestones(task: str, runs: list[dict]) -> dict[str, list[int | None]]:
+    """Per fraction of ``FINAL_FRACTIONS`` (key ``"0.5"``...), each seed's
+    ``episodes_to_fraction_of_final`` on the task's ``headline_metric``, counting the episodes
+    behind a fine-tuned run's initial weights."""
+    metric = headline_metric(task)
+
+    def reached(run: dict, fraction: float) -> int | None:
+        final = (run.get("eval") or {}).get(metric)
+        episodes = episodes_to_fraction_of_final(run.get("periodic", []), metric, final, fraction)
+        return None if episodes is None else episodes + int(run.get("init", {}).get("initial_episodes", 0))
+
+    return {f"{fraction:g}": [reached(run, fraction) for run in runs] for fraction in FINAL_FRACTIONS}
+
+
 def _state(run_dir: Path) -> dict:
     """Budget spent: ``done.json`` of a finished run, else its latest checkpoint's state."""
     from relmogen.experiments.checkpoints import latest_checkpoint
@@ -268,7 +301,8 @@ def reference_rows(groups: dict[tuple[str, str], list[dict]]) -> list[dict]:
     for (task, algo), runs in sorted(groups.items()):
         evaluations = [run["eval"] for run in runs if run["eval"] is not None]
         row = _row(task, algo, True, runs, evaluations, _shared_setting(evaluations))
-        rows.append(row | {"episodes_to_success_rate": _milestones(runs)})
+        rows.append(row | {"episodes_to_success_rate": _milestones(runs),
+                           "episodes_to_final_fraction": _final_fraction_milestones(task, runs)})
     return rows
 
 
@@ -295,7 +329,9 @@ def table_json(rows: list[dict]) -> dict:
     do not record it), ``seeds``, ``assisted``, the mean training budget (``episodes``, ``wall_hours``,
     ``cpu_hours``) and per metric of ``ROW_METRICS`` ``{mean, std, max}`` over seeds, or null. Reference
     rows also have ``episodes_to_success_rate``: per milestone (``"0.5"``, ``"0.9"``) a list with each
-    seed's training episodes at its first periodic evaluation that reached it (null if none)."""
+    seed's training episodes at its first periodic evaluation that reached it (null if none), and
+    ``episodes_to_final_fraction``: the same per fraction (``"0.5"``, ``"0.9"``) of each seed's own final
+    figure on the task's ``headline_metric``."""
     return {"schema_version": TABLE_JSON_SCHEMA_VERSION, "rows": rows}
 
 
@@ -340,16 +376,20 @@ def reference_table(rows: list[dict]) -> str:
     """The markdown table of the reference rows, with a note on what the cells are."""
     metrics = shown_metrics(rows, TABLE_METRICS)
     milestones = [f"episodes to SR {threshold:g}" for threshold in SR_MILESTONES]
-    header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "wall-clock h", "CPU h", *milestones]
+    fractions = [f"episodes to {fraction:.0%} of final" for fraction in FINAL_FRACTIONS]
+    header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "wall-clock h", "CPU h", *milestones, *fractions]
     lines = [[row["task"], row["algorithm"], training_of(row), str(row["seeds"]),
               *(metric_cell(row, metric) for metric in metrics),
               str(int(row["episodes"])), hours_cell(row["wall_hours"]), hours_cell(row["cpu_hours"]),
-              *(seeds_cell(row["episodes_to_success_rate"][f"{t:g}"]) for t in SR_MILESTONES)] for row in rows]
+              *(seeds_cell(row["episodes_to_success_rate"][f"{t:g}"]) for t in SR_MILESTONES),
+              *(seeds_cell(row["episodes_to_final_fraction"][f"{f:g}"]) for f in FINAL_FRACTIONS)] for row in rows]
     return (markdown_grid(header, lines) + "\n\nCells are mean / std / max over seeds of the final evaluation "
             "(deterministic policy). episodes, wall-clock h and CPU h (trainer plus environment workers) are means "
             "over seeds. training: assisted where a run used oracle demonstrations or oracle labels. episodes to "
             "SR x: per seed, the training episodes at the first periodic evaluation (a few episodes, as during "
-            "training) with success rate at least x; - if none.")
+            "training) with success rate at least x; - if none. episodes to x% of final: the same, for x% of the seed's "
+            "own final figure (items closed on the arrangement tasks, else the success rate); - if none or if the "
+            "final figure is 0.")
 
 
 def seeds_cell(values: list) -> str:

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 
 from relmogen.experiments.report import (TABLE_JSON_SCHEMA_VERSION, hours_cell, markdown_grid, summary_cell,
-                                         training_of)
+                                         seeds_cell, training_of)
 
 TASKS = ("PointNav", "TabletopReachM", "PushDoorNav", "ButtonDoorNav", "InteractiveObstaclesNav",
          "ArrangeKitchenMM", "ArrangeChairMM")
@@ -152,11 +152,20 @@ def assisted_table(rows: list[dict]) -> str:
 
 
 def budget_table(rows: list[dict]) -> str:
-    """A line per reference row: the training budget, episodes and CPU hours, as means over seeds."""
-    header = ["task", "algorithm", "training", "folder", "seeds", "episodes", "CPU h"]
+    """A line per reference row: the training budget, episodes and CPU hours, as means over seeds,
+    and per seed the episodes at which its periodic evaluation first reached half and 90% of its
+    final figure (``report.episodes_to_fraction_of_final``; ``-`` for reports written before it)."""
+    header = ["task", "algorithm", "training", "folder", "seeds", "episodes", "CPU h",
+              "episodes to 50% of final, per seed", "to 90%"]
     lines = [[row["task"], row["algorithm"], training_of(row), row["source"], str(row["seeds"]),
-              str(int(row["episodes"])), hours_cell(row["cpu_hours"])] for row in sorted(rows, key=paper_order)]
+              str(int(row["episodes"])), hours_cell(row["cpu_hours"]),
+              *(fraction_cell(row, fraction) for fraction in ("0.5", "0.9"))] for row in sorted(rows, key=paper_order)]
     return markdown_grid(header, lines)
+
+
+def fraction_cell(row: dict, fraction: str) -> str:
+    milestones = row.get("episodes_to_final_fraction")
+    return seeds_cell(milestones[fraction]) if milestones else "-"
 
 
 RERUNS_TITLE = """## Reruns from the recipes

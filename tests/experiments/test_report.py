@@ -11,7 +11,8 @@ from matplotlib.collections import PathCollection
 from relmogen.experiments.config import resolve_config, save_config
 from relmogen.cli import main
 from relmogen.experiments.report import (CURVE_SMOOTHING, ROW_METRICS, _counts_items, checkpoint_evaluations,
-                                         final_evaluation, read_curve, write_curves, write_report)
+                                         episodes_to_fraction_of_final, final_evaluation, headline_metric,
+                                         read_curve, write_curves, write_report)
 from relmogen.experiments.table1 import write_table1
 
 
@@ -283,6 +284,30 @@ def test_reference_rows_give_the_episodes_at_which_periodic_evaluation_first_rea
                      if row["reference"])
     assert reference["episodes_to_success_rate"] == {"0.5": [200, 300], "0.9": [400, None]}
     assert "200, 300" in result["markdown"] and "400, -" in result["markdown"]
+
+
+def test_reference_rows_give_the_episodes_at_which_periodic_evaluation_reached_half_and_90_percent_of_final(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", seed, final, 0.5) for seed, final in ((0, 0.8), (1, 0.4), (2, 0.0))]
+    for run, rates in zip(runs, [(0.1, 0.4, 0.7, 0.8), (0.3, 0.1, 0.2, 0.4), (0.0, 0.1, 0.0, 0.0)]):
+        (run / "eval_during_training.jsonl").write_text("".join(
+            json.dumps({"episode": 100 * (i + 1), "success_rate": rate}) + "\n" for i, rate in enumerate(rates)))
+    cell = tmp_path / "table1" / "PushDoorNav__relmogen-r"
+    result = write_report(runs, cell)
+    reference = next(row for row in json.loads((cell / "table.json").read_text())["rows"] if row["reference"])
+    # seed 0: 0.4 >= 0.5 x 0.8 at 200, 0.8 >= 0.9 x 0.8 at 400 (0.7 < 0.72); seed 1: 0.3 >= 0.2 at 100,
+    # 0.4 >= 0.36 at 400; seed 2 ends at 0: no milestone
+    assert reference["episodes_to_final_fraction"] == {"0.5": [200, 100, None], "0.9": [400, 400, None]}
+    assert "200, 100, -" in result["markdown"] and "episodes to 90% of final" in result["markdown"]
+    budget_line = next(line for line in write_table1(cell.parent).read_text().splitlines()
+                       if line.startswith("| PushDoorNav | relmogen-r | reward-only"))
+    assert budget_line.endswith("| 200, 100, - | 400, 400, - |")
+
+
+def test_the_arrangement_tasks_are_judged_by_items_closed_and_the_others_by_success():
+    assert headline_metric("ArrangeKitchenMM") == headline_metric("ArrangeChairMM") == "closed_10"
+    assert headline_metric("PushDoorNav") == headline_metric("TabletopReachM") == "success_rate"
+    assert episodes_to_fraction_of_final([{"episode": 500, "closed_10": 2.0}], "closed_10", 4.0, 0.5) == 500
+    assert episodes_to_fraction_of_final([{"episode": 500, "closed_10": 1.9}], "closed_10", 4.0, 0.5) is None
 
 
 def save_evaluation(run, name: str, checkpoint: str, episodes: int, success_rate: float) -> None:
