@@ -213,7 +213,9 @@ def test_cli_list_and_dry_run(capsys):
     assert main(["reproduce", "--list"]) == 0
     rows = [line.strip("│ ").split("│") for line in capsys.readouterr().out.splitlines() if "table1/" in line]
     assert len(rows) == len(available_recipes())
-    assert [cell.strip() for cell in rows[0][:3]] == ["table1/ArrangeChairMM__relmogen-d", "closed_10", "0.36"]
+    chair = next(row for row in rows if row[0].strip() == "table1/ArrangeChairMM__relmogen-d")
+    assert [cell.strip() for cell in chair[1:4]] == ["closed_10", "0.36", "0.81 / 0.24 / 1.08"]
+    assert "not run yet" in next(row for row in rows if row[0].strip() == "table1/ArrangeChairMM__sac")[3]
     assert main(["reproduce", "ArrangeKitchenMM__relmogen-d", "--dry-run", "--seeds", "2"]) == 0
     documents = list(yaml.safe_load_all(capsys.readouterr().out))
     assert [(doc["seed"], doc["episodes"]) for doc in documents] == [(2, 1500), (2, 4600), (2, 100000)]
