@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import itertools
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Callable
 from dataclasses import dataclass, field
 
@@ -105,7 +107,11 @@ class ArmCollisionChecker:
     ``SelfCollisionCopy`` of the robot: one broadphase there instead of a box per link here).
 
     ``target_body`` (set by ``ArmMotion`` for one subgoal): the gripper links may penetrate that
-    body by ``target_penetration_allowance`` instead of ``gripper_penetration_allowance``."""
+    body by ``target_penetration_allowance`` instead of ``gripper_penetration_allowance``.
+
+    Inside ``other_joints_held()`` (an IK solve or a plan: nothing steps physics) the copy gets the
+    robot's other joints once and then only ``q`` per query, instead of reading and setting every
+    movable joint per query; the answers are the same."""
 
     def __init__(self, client: int, robot: Robot, gripper_penetration_allowance: float,
                  target_penetration_allowance: float | None = None):
@@ -128,6 +134,8 @@ class ArmCollisionChecker:
         self.self_pairs = [pair for pair in candidates if pair not in self.ignored_pairs]
         self._self_copy = SelfCollisionCopy(robot.spec.urdf_path, self.self_pairs)
         self._mirrored_joints = movable_joints(client, robot.robot_id)  # head and fingers count too
+        self._planning_joints = [int(j) for j in self.joints]
+        self._held = 0  # depth of other_joints_held() contexts
 
     # ------------------------------------------------------------------ setup
 
@@ -202,12 +210,26 @@ class ArmCollisionChecker:
         states = p.getJointStates(self.robot.robot_id, joints, physicsClientId=self.client)
         return self._self_copy.touching(joints, [state[0] for state in states])
 
+    @contextmanager
+    def other_joints_held(self) -> Iterator[None]:
+        """Queries in this block may assume the robot's joints other than the planning joints stay
+        where they are now (the copy is given them once here)."""
+        if not self._held:
+            self._hits_itself()  # mirrors every movable joint onto the copy
+        self._held += 1
+        try:
+            yield
+        finally:
+            self._held -= 1
+
     def __call__(self, q: Config) -> bool:
         """Sets the planning joints (the caller restores them) and checks; True = collision."""
         if not self.within_limits(q):
             return True
         self.robot.set_joint_positions(self.joints, q)
-        return self.current_pose_in_collision()
+        if not self._held:
+            return self.current_pose_in_collision()
+        return self._hits_world() or self._self_copy.touching(self._planning_joints, np.asarray(q, dtype=np.float64).tolist())
 
 
 class ArmMotion:
@@ -245,8 +267,9 @@ class ArmMotion:
     def solve_ik(self, target_xyz: np.ndarray, rng: np.random.Generator, from_current: bool = True):
         cfg = self.config
         valid = (lambda q: not self.checker(q)) if cfg.collision_checking else None
-        return self.ik_solver.solve(target_xyz, rng, cfg.ik_iterations, cfg.ik_restarts, cfg.ik_tolerance, valid,
-                                    from_current)
+        with self.checker.other_joints_held():
+            return self.ik_solver.solve(target_xyz, rng, cfg.ik_iterations, cfg.ik_restarts, cfg.ik_tolerance, valid,
+                                        from_current)
 
     def ik(self, target_xyz: np.ndarray, rng: np.random.Generator) -> Config | None:
         """Planning-joint configuration putting the gripper within tolerance of the target."""
@@ -258,7 +281,8 @@ class ArmMotion:
         problem = PlanningProblem(start=saved[0], goal=goal, lower=self.checker.lower, upper=self.checker.upper,
                                   collision_fn=self.collision_fn(), resolutions=self.config.joint_resolution)
         try:
-            return self.planner.plan(problem, rng)
+            with self.checker.other_joints_held():
+                return self.planner.plan(problem, rng)
         finally:
             self.ik_solver.restore(saved)
 

@@ -24,6 +24,11 @@ from relmogen.robots.robot import Robot
 
 Config = np.ndarray
 _FULL_TURN = 2.0 * np.pi - 1e-6
+# An attempt still this far from the target after the first PROBE_ITERATIONS is abandoned; the others
+# go on from there to the full count. On TabletopReachM table points, random seeds reached the 5 cm
+# tolerance as often after 20 iterations as after 100 (0.42 of attempts), and 1 success in 174 was
+# further than 0.3 m at 20; a random attempt cost 0.27 ms of CPU at 20 iterations, 0.80 at 100.
+PROBE_ITERATIONS, ABANDON_DISTANCE_M = 20, 0.3
 
 
 @dataclass(frozen=True)
@@ -114,7 +119,11 @@ class ArmIK:
                 current = attempt == 0 and from_current
                 seed = saved[0] if current else self.random_config(rng)
                 rest = saved[0] if current else self.random_config(rng)
-                q = self._into_limits(self._raw_ik(target, seed, rest, iterations))
+                q, probe_error = self._probed_ik(target, seed, rest, iterations)
+                if q is None:
+                    best_error = min(best_error, probe_error)
+                    continue
+                q = self._into_limits(q)
                 error = float(np.linalg.norm(self.end_effector_at(q) - target))
                 best_error = min(best_error, error)
                 if error > tolerance:
@@ -126,6 +135,19 @@ class ArmIK:
             self.restore(saved)
         reason = "IK solution in collision" if reachable else f"no IK solution within {tolerance:g} m"
         return IKResult(None, reason, best_error, attempts)
+
+    def _probed_ik(self, target: np.ndarray, seed: Config, rest: Config,
+                   iterations: int) -> tuple[Config | None, float]:
+        """``_raw_ik`` with ``iterations`` (the solver goes on from where ``PROBE_ITERATIONS``
+        stopped), or None when the probe is still more than ``ABANDON_DISTANCE_M`` away; and the
+        probe's distance to the target (0 without a probe)."""
+        if iterations <= PROBE_ITERATIONS:
+            return self._raw_ik(target, seed, rest, iterations), 0.0
+        probe = self._raw_ik(target, seed, rest, PROBE_ITERATIONS)
+        distance = float(np.linalg.norm(self.end_effector_at(probe) - target))
+        if distance > ABANDON_DISTANCE_M:
+            return None, distance
+        return self._raw_ik(target, probe, rest, iterations - PROBE_ITERATIONS), distance
 
     def track_line(self, points: np.ndarray, start: Config, iterations: int) -> np.ndarray:
         """Joint targets following ``points`` in order, each IK seeded from the previous one

@@ -96,6 +96,20 @@ def test_ik_unreachable_point_returns_none(world, robot):
     assert result.attempts == ArmConfig().ik_restarts
 
 
+def test_ik_abandons_an_attempt_still_far_away_after_its_probe_iterations(world, robot, monkeypatch):
+    from relmogen.motion_generation import ik as ik_module
+
+    arm, calls = ArmMotion(world.client, robot), []
+    raw_ik = arm.ik_solver._raw_ik
+    monkeypatch.setattr(arm.ik_solver, "_raw_ik", lambda *args: calls.append(args[-1]) or raw_ik(*args))
+    result = arm.solve_ik(np.array([3.0, 0.0, 0.8]), np.random.default_rng(0))
+    assert result.config is None and result.error_m > ik_module.ABANDON_DISTANCE_M
+    assert calls == [ik_module.PROBE_ITERATIONS] * ArmConfig().ik_restarts  # never the remaining 80
+    calls.clear()
+    assert arm.ik(np.array([0.7, 0.1, 0.8]), np.random.default_rng(0)) is not None
+    assert calls[:2] == [ik_module.PROBE_ITERATIONS, ArmConfig().ik_iterations - ik_module.PROBE_ITERATIONS]
+
+
 def test_ik_point_deep_inside_a_box_is_in_collision(world, robot):
     add_box(world.client, [0.25, 0.25, 0.25], [0.75, 0.0, 0.8])
     arm = ArmMotion(world.client, robot, ArmConfig(ik_restarts=10))
@@ -149,6 +163,20 @@ def test_collision_fn_agrees_with_testing_every_self_pair_on_the_robot(world, ro
         assert checker(q) == (world_hit or self_hit)
         outcomes.append((world_hit, self_hit))
     assert {(False, False), (False, True), (True, False)} <= set(outcomes)
+
+
+def test_while_the_other_joints_are_held_the_checker_answers_as_when_it_mirrors_them_per_query(world, robot):
+    add_box(world.client, [0.3, 0.5, 0.36], [0.85, 0.0, 0.36])
+    arm = ArmMotion(world.client, robot)
+    checker, rng = arm.checker, np.random.default_rng(1)
+    others = np.concatenate([robot.head_joint_indices, robot.gripper_joint_indices])
+    for _ in range(5):  # head and fingers somewhere else for each block
+        robot.set_joint_positions(others, rng.uniform(robot.joint_lower[others], robot.joint_upper[others]))
+        configs = [rng.uniform(checker.lower, checker.upper) for _ in range(40)]
+        mirrored = [checker(q) for q in configs]
+        with checker.other_joints_held(), checker.other_joints_held():  # nested: an IK solve inside a plan
+            held = [checker(q) for q in configs]
+        assert held == mirrored and any(mirrored) and not all(mirrored)
 
 
 # ---------------------------------------------------------------------------- planning
