@@ -166,19 +166,25 @@ def _milestones(runs: list[dict]) -> dict[str, list[int | None]]:
     """Per milestone of ``SR_MILESTONES`` (key ``"0.5"``...), each seed's ``episodes_to_success_rate``,
     counting the episodes behind a fine-tuned run's initial weights."""
     def reached(run: dict, threshold: float) -> int | None:
-        episodes = episodes_to_success_rate(run.get("periodic", []), threshold)
-        return None if episodes is None else episodes + int(run.get("init", {}).get("initial_episodes", 0))
+        return _counting_initial_episodes(run, episodes_to_success_rate(run.get("periodic", []), threshold))
 
     return {f"{threshold:g}": [reached(run, threshold) for run in runs] for threshold in SR_MILESTONES}
+
+
+def _counting_initial_episodes(run: dict, episodes: int | None) -> int | None:
+    """``episodes`` of a run plus those behind a fine-tuned run's initial weights; None stays None."""
+    return None if episodes is None else episodes + int(run.get("init", {}).get("initial_episodes", 0))
 
 
 FINAL_FRACTIONS = (0.5, 0.9)  # the training episodes at which periodic evaluation first reached these of the final figure
 
 
 def headline_metric(task: str) -> str:
-    """The evaluation key a task is judged by in Table I: items closed (``closed_10``) for the
-    arrangement tasks, the success rate for the others."""
-    return "closed_10" if has_metric(task, "closed_10") else "success_rate"
+    """The evaluation key a task is judged by in Table I (``table1.metric_of``): items closed
+    (``closed_10``) for the arrangement tasks, the success rate for the others."""
+    from relmogen.experiments.table1 import metric_of  # table1 builds on this module
+
+    return metric_of(task)[0]
 
 
 def episodes_to_fraction_of_final(periodic: list[dict], metric: str, final: float | None,
@@ -199,8 +205,8 @@ def _final_fraction_milestones(task: str, runs: list[dict]) -> dict[str, list[in
 
     def reached(run: dict, fraction: float) -> int | None:
         final = (run.get("eval") or {}).get(metric)
-        episodes = episodes_to_fraction_of_final(run.get("periodic", []), metric, final, fraction)
-        return None if episodes is None else episodes + int(run.get("init", {}).get("initial_episodes", 0))
+        return _counting_initial_episodes(run, episodes_to_fraction_of_final(run.get("periodic", []), metric,
+                                                                             final, fraction))
 
     return {f"{fraction:g}": [reached(run, fraction) for run in runs] for fraction in FINAL_FRACTIONS}
 
@@ -376,7 +382,7 @@ def reference_table(rows: list[dict]) -> str:
     """The markdown table of the reference rows, with a note on what the cells are."""
     metrics = shown_metrics(rows, TABLE_METRICS)
     milestones = [f"episodes to SR {threshold:g}" for threshold in SR_MILESTONES]
-    fractions = [f"episodes to {fraction:.0%} of final" for fraction in FINAL_FRACTIONS]
+    fractions = [fraction_label(fraction) for fraction in FINAL_FRACTIONS]
     header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "wall-clock h", "CPU h", *milestones, *fractions]
     lines = [[row["task"], row["algorithm"], training_of(row), str(row["seeds"]),
               *(metric_cell(row, metric) for metric in metrics),
@@ -390,6 +396,10 @@ def reference_table(rows: list[dict]) -> str:
             "training) with success rate at least x; - if none. episodes to x% of final: the same, for x% of the seed's "
             "own final figure (items closed on the arrangement tasks, else the success rate); - if none or if the "
             "final figure is 0.")
+
+
+def fraction_label(fraction: float) -> str:
+    return f"episodes to {fraction:.0%} of final"
 
 
 def seeds_cell(values: list) -> str:

@@ -12,8 +12,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from relmogen.experiments.report import (TABLE_JSON_SCHEMA_VERSION, hours_cell, markdown_grid, summary_cell,
-                                         seeds_cell, training_of)
+from relmogen.experiments.report import (FINAL_FRACTIONS, TABLE_JSON_SCHEMA_VERSION, fraction_label, hours_cell,
+                                         markdown_grid, seeds_cell, summary_cell, training_of)
 
 TASKS = ("PointNav", "TabletopReachM", "PushDoorNav", "ButtonDoorNav", "InteractiveObstaclesNav",
          "ArrangeKitchenMM", "ArrangeChairMM")
@@ -156,16 +156,16 @@ def budget_table(rows: list[dict]) -> str:
     and per seed the episodes at which its periodic evaluation first reached half and 90% of its
     final figure (``report.episodes_to_fraction_of_final``; ``-`` for reports written before it)."""
     header = ["task", "algorithm", "training", "folder", "seeds", "episodes", "CPU h",
-              "episodes to 50% of final, per seed", "to 90%"]
+              *(f"{fraction_label(fraction)}, per seed" for fraction in FINAL_FRACTIONS)]
     lines = [[row["task"], row["algorithm"], training_of(row), row["source"], str(row["seeds"]),
               str(int(row["episodes"])), hours_cell(row["cpu_hours"]),
-              *(fraction_cell(row, fraction) for fraction in ("0.5", "0.9"))] for row in sorted(rows, key=paper_order)]
+              *(fraction_cell(row, fraction) for fraction in FINAL_FRACTIONS)] for row in sorted(rows, key=paper_order)]
     return markdown_grid(header, lines)
 
 
-def fraction_cell(row: dict, fraction: str) -> str:
+def fraction_cell(row: dict, fraction: float) -> str:
     milestones = row.get("episodes_to_final_fraction")
-    return seeds_cell(milestones[fraction]) if milestones else "-"
+    return seeds_cell(milestones[f"{fraction:g}"]) if milestones else "-"
 
 
 RERUNS_TITLE = """## Reruns from the recipes
