@@ -315,6 +315,11 @@ class HRL4IN:
     def device(self):
         return self.low.device
 
+    @property
+    def _n_updates(self) -> int:
+        """Gradient steps of both levels, as SB3 models count theirs."""
+        return self.high._n_updates + self.low._n_updates
+
     def get_env(self):
         return self.env
 

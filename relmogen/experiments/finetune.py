@@ -77,15 +77,15 @@ def initialise_from(model, config: TrainConfig, folder: Path, source_run: Path, 
     return record
 
 
-INITIAL_BUDGET_KEYS = ("episodes", "cpu_time_s", "wall_time_s")  # state.json keys, as initial_<key>
+INITIAL_BUDGET_KEYS = ("episodes", "cpu_time_s", "wall_time_s", "gradient_updates")  # state.json keys, as initial_<key>
 
 
 def _budget_before(state: dict, source_init: dict | None) -> dict[str, float]:
     """What the weights had cost when loaded: the source checkpoint's episodes, CPU and wall
     seconds, plus whatever its own run had been initialised from (``initial_*`` of its log)."""
     earlier = source_init or {}
-    return {f"initial_{key}": float(state.get(key, 0.0)) + float(earlier.get(f"initial_{key}", 0.0))
-            for key in INITIAL_BUDGET_KEYS}
+    return {f"initial_{key}": float(state[key]) + float(earlier.get(f"initial_{key}", 0.0))
+            for key in INITIAL_BUDGET_KEYS if key in state}  # gradient_updates: states since 2026-12-08
 
 
 def read_init_from(run_dir: Path) -> dict | None:

@@ -99,6 +99,7 @@ class TrainingMonitor(BaseCallback):
         self.wall_before_session = state["wall_time_s"]
         self.cpu_before_session = state.get("cpu_time_s", 0.0)
         self.steps_at_start, self.episodes_at_start = state["timesteps"], state["episodes"]
+        self.updates_before_session, self.updates_at_start = state.get("gradient_updates", 0), None
         self.writer = SummaryWriter(str(self.run_dir / "tb"))
         self.csv_file, self.csv = open_episode_log(self.run_dir / "episodes.csv")
         self.successes: list[float] = []
@@ -119,6 +120,7 @@ class TrainingMonitor(BaseCallback):
         return self.cpu_before_session + process_tree_cpu_seconds()
 
     def _on_training_start(self) -> None:
+        self.updates_at_start = self.model._n_updates  # a fine-tuned model arrives with its source's count
         self.progress.start()
         self.bar = self.progress.add_task(f"{self.config.task} {self.config.algo}", total=self.config.episodes,
                                           completed=self.state["episodes"], remaining="", stats=self._stats(0.0))
@@ -254,7 +256,14 @@ class TrainingMonitor(BaseCallback):
         self.state["wall_time_s"] = self.wall_time
         self.state["cpu_time_s"] = self.cpu_time
         self.state["timesteps"] = self.model.num_timesteps
+        self.state["gradient_updates"] = self.gradient_updates
         return dict(self.state)
+
+    @property
+    def gradient_updates(self) -> int:
+        """Gradient steps this run has taken (every session, not those behind ``--init-from`` weights)."""
+        updates_at_start = self.model._n_updates if self.updates_at_start is None else self.updates_at_start
+        return int(self.updates_before_session + self.model._n_updates - updates_at_start)
 
     def close(self) -> None:
         self.writer.close()

@@ -50,6 +50,8 @@ def test_resume_continues_both_levels_and_eval_writes_the_usual_json(tiny_run):
     after, _ = load_checkpoint(latest_checkpoint(tiny_run), tiny_run, device="cpu")
     assert after.num_timesteps == 30 and after.high_transitions > before.high_transitions
     assert after.low._n_updates > before.low._n_updates and after.high._n_updates > before.high._n_updates
+    done = json.loads((tiny_run / "done.json").read_text())
+    assert done["gradient_updates"] == after._n_updates == after.low._n_updates + after.high._n_updates
     rows = (tiny_run / "episodes.csv").read_text().splitlines()
     assert [row.split(",")[0] for row in rows[1:]] == ["1", "2", "3"]
     result = evaluate_path(tiny_run, episodes=1, seed=7, device="cpu", quiet=True)

@@ -42,6 +42,13 @@ def episodes_in(run_dir: Path) -> list[int]:
         return [int(row["episode"]) for row in csv.DictReader(handle)]
 
 
+def assert_gradient_updates_are_counted_across_sessions(run_dir: Path, first_session: dict) -> None:
+    """done.json counts every gradient step of the run, the first session's and the resumed one's."""
+    model, _, _ = load_policy(run_dir)
+    done = json.loads((run_dir / "done.json").read_text())
+    assert 0 < first_session["gradient_updates"] < done["gradient_updates"] == model._n_updates
+
+
 @pytest.mark.parametrize("algo,episodes", [("sac", 5), ("oac", 5), ("relmogen-r", 3), ("relmogen-d", 3)])
 def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     config = resolve_config("PointNav", algo, seed=0, preset="tiny", episodes=episodes)
@@ -73,6 +80,7 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     resume(run_dir, quiet=True)
     assert latest_checkpoint(run_dir) == before and (run_dir / "done.json").is_file()
     assert episodes_in(run_dir) == list(range(1, episodes + 3))
+    assert_gradient_updates_are_counted_across_sessions(run_dir, state)
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
     assert result["policy"] == "deterministic"
