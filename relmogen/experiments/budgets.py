@@ -94,3 +94,25 @@ def stop_reason(run_dir: Path) -> str | None:
     """The line naming what ended a finished run (``done.json``), or None for runs without one."""
     done = Path(run_dir) / DONE
     return json.loads(done.read_text()).get("stop_reason") if done.is_file() else None
+
+
+def gradient_updates(config: TrainConfig, state: dict) -> tuple[int | None, bool]:
+    """A run's gradient steps (``state.json``/``done.json``) and whether they were counted (True)
+    or, for a run older than the count (2026-12-08), derived from its schedule (False; None for
+    HRL4IN, whose high level updates once per subgoal)."""
+    if "gradient_updates" in state:
+        return int(state["gradient_updates"]), True
+    if config.algo == "hrl4in" or "timesteps" not in state:
+        return None, False
+    return scheduled_gradient_updates(config, int(state["timesteps"])), False
+
+
+def scheduled_gradient_updates(config: TrainConfig, timesteps: int) -> int:
+    """The gradient steps SB3's off-policy loop takes in ``timesteps`` transitions of one
+    uninterrupted run: ``gradient_steps`` after each rollout of ``train_freq`` steps of every
+    environment that ends past ``learning_starts``. A stop and a resume can each move the
+    count by one rollout's steps."""
+    params = config.algo_params
+    rollout = params.train_freq * config.env.n_envs
+    rollouts_after_start = timesteps // rollout - params.learning_starts // rollout
+    return max(rollouts_after_start, 0) * params.gradient_steps

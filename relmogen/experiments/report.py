@@ -26,6 +26,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from relmogen.experiments.budgets import gradient_updates  # noqa: E402
 from relmogen.experiments.config import read_config  # noqa: E402
 from relmogen.experiments.finetune import read_init_from  # noqa: E402
 from relmogen.experiments.task_catalogue import task_evaluation_keys  # noqa: E402
@@ -139,7 +140,8 @@ def collect(run_dirs: list[Path], checkpoint: str = "latest") -> dict[tuple[str,
             "seed": config.seed, "run_dir": run_dir, "eval": final_evaluation(run_dir, checkpoint), "assisted": is_assisted(config),
             "eval_every": config.run.eval_every_episodes,
             "all_evals": [read_evaluation(p) for p in sorted((run_dir / "eval").glob("*.json"))],
-            "curve": read_curve(run_dir / "episodes.csv"), "state": _state(run_dir),
+            "curve": read_curve(run_dir / "episodes.csv"), "state": (state := _state(run_dir)),
+            "updates": gradient_updates(config, state),
             "periodic": read_periodic_evaluations(run_dir), "init": read_init_from(run_dir) or {},
         })
     return groups
@@ -287,10 +289,32 @@ def _budget(runs: list[dict]) -> dict[str, float | None]:
     wall_hours = [(run["state"].get("wall_time_s", 0.0) + initial(run, "wall_time_s")) / 3600 for run in runs]
     cpu_hours = [(run["state"]["cpu_time_s"] + initial(run, "cpu_time_s")) / 3600
                  for run in runs if "cpu_time_s" in run["state"]]
+    updates = [_gradient_updates_with_initial(run) for run in runs]
     return {"episodes": float(np.mean(episodes)), "wall_hours": float(np.mean(wall_hours)),
             "cpu_hours": float(np.mean(cpu_hours)) if len(cpu_hours) == len(runs) else None,
+            "gradient_updates": float(np.mean(updates)) if runs and None not in updates else None,
+            "gradient_updates_counted": all(run.get("updates", (None, False))[1] for run in runs),
             "initial_episodes": float(np.mean([initial(run, "episodes") for run in runs])),
             "initial_cpu_hours": float(np.mean([initial(run, "cpu_time_s") for run in runs])) / 3600}
+
+
+def _gradient_updates_with_initial(run: dict) -> int | None:
+    """The run's gradient steps plus those behind its ``--init-from`` weights (None where either is
+    unknown: HRL4IN runs and fine-tuned runs from before the count)."""
+    updates, _ = run.get("updates", (None, False))
+    if updates is None or not run["init"]:
+        return updates
+    initial = run["init"].get("initial_gradient_updates")
+    return None if initial is None else updates + int(initial)
+
+
+def updates_cell(row: dict) -> str:
+    """Mean gradient updates per run; ``~`` marks a figure derived from the runs' update schedule
+    (runs from before the count), ``-`` an unknown one."""
+    updates = row.get("gradient_updates")
+    if updates is None:
+        return "-"
+    return f"{'' if row.get('gradient_updates_counted') else '~'}{updates:,.0f}"
 
 
 def _row(task: str, algo: str, reference: bool, runs: list[dict], evaluations: list[dict], setting: dict) -> dict:
@@ -382,15 +406,17 @@ def reference_table(rows: list[dict]) -> str:
     metrics = shown_metrics(rows, TABLE_METRICS)
     milestones = [f"episodes to SR {threshold:g}" for threshold in SR_MILESTONES]
     fractions = [fraction_label(fraction) for fraction in FINAL_FRACTIONS]
-    header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "wall-clock h", "CPU h", *milestones, *fractions]
+    header = ["task", "algorithm", "training", "seeds", *metrics, "episodes", "gradient updates", "wall-clock h", "CPU h",
+              *milestones, *fractions]
     lines = [[row["task"], row["algorithm"], training_of(row), str(row["seeds"]),
               *(metric_cell(row, metric) for metric in metrics),
-              str(int(row["episodes"])), hours_cell(row["wall_hours"]), hours_cell(row["cpu_hours"]),
+              str(int(row["episodes"])), updates_cell(row), hours_cell(row["wall_hours"]), hours_cell(row["cpu_hours"]),
               *(seeds_cell(row["episodes_to_success_rate"][f"{t:g}"]) for t in SR_MILESTONES),
               *(seeds_cell(row["episodes_to_final_fraction"][f"{f:g}"]) for f in FINAL_FRACTIONS)] for row in rows]
     return (markdown_grid(header, lines) + "\n\nCells are mean / std / max over seeds of the final evaluation "
-            "(deterministic policy). episodes, wall-clock h and CPU h (trainer plus environment workers) are means "
-            "over seeds. training: assisted where a run used oracle demonstrations or oracle labels. episodes to "
+            "(deterministic policy). episodes, gradient updates, wall-clock h and CPU h (trainer plus environment "
+            "workers) are means over seeds; ~ marks updates derived from the runs' update schedule (runs from before "
+            "they were counted). training: assisted where a run used oracle demonstrations or oracle labels. episodes to "
             "SR x: per seed, the training episodes at the first periodic evaluation (a few episodes, as during "
             "training) with success rate at least x; - if none. episodes to x% of final: the same, for x% of the seed's "
             "own final figure (items closed on the arrangement tasks, else the success rate); - if none or if the "

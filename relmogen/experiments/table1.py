@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 
 from relmogen.experiments.report import (FINAL_FRACTIONS, TABLE_JSON_SCHEMA_VERSION, fraction_label, hours_cell,
-                                         markdown_grid, seeds_cell, summary_cell, training_of)
+                                         markdown_grid, seeds_cell, summary_cell, training_of, updates_cell)
 
 TASKS = ("PointNav", "TabletopReachM", "PushDoorNav", "ButtonDoorNav", "InteractiveObstaclesNav",
          "ArrangeKitchenMM", "ArrangeChairMM")
@@ -155,10 +155,10 @@ def budget_table(rows: list[dict]) -> str:
     """A line per reference row: the training budget, episodes and CPU hours, as means over seeds,
     and per seed the episodes at which its periodic evaluation first reached half and 90% of its
     final figure (``report.episodes_to_fraction_of_final``; ``-`` for reports written before it)."""
-    header = ["task", "algorithm", "training", "folder", "seeds", "episodes", "CPU h",
+    header = ["task", "algorithm", "training", "folder", "seeds", "episodes", "gradient updates", "CPU h",
               *(f"{fraction_label(fraction)}, per seed" for fraction in FINAL_FRACTIONS)]
     lines = [[row["task"], row["algorithm"], training_of(row), row["source"], str(row["seeds"]),
-              str(int(row["episodes"])), hours_cell(row["cpu_hours"]),
+              str(int(row["episodes"])), updates_cell(row), hours_cell(row["cpu_hours"]),
               *(fraction_cell(row, fraction) for fraction in FINAL_FRACTIONS)] for row in sorted(rows, key=paper_order)]
     return markdown_grid(header, lines)
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from matplotlib.collections import PathCollection
 
+from relmogen.experiments.budgets import scheduled_gradient_updates
 from relmogen.experiments.config import resolve_config, save_config
 from relmogen.cli import main
 from relmogen.experiments.report import (CURVE_SMOOTHING, ROW_METRICS, _counts_items, checkpoint_evaluations,
@@ -41,7 +42,7 @@ def test_table_has_mean_std_max_over_seeds(tmp_path):
     mean, std = np.mean([0.9, 1.0, 0.8]), np.std([0.9, 1.0, 0.8])
     assert f"{mean:.2f} / {std:.2f} / 1.00" in row
     assert f"{np.mean([0.5, 0.7, 0.6]):.2f} / {np.std([0.5, 0.7, 0.6]):.2f} / 0.70" in row
-    assert "| 3 |" in row and "| 100 | 1.00 | 0.50 |" in row  # CPU h: mean of 0.25, 0.5, 0.75
+    assert "| 3 |" in row and "| 100 | - | 1.00 | 0.50 |" in row  # updates unknown; CPU h: mean of 0.25, 0.5, 0.75
     assert "0.00 / 0.00 / 0.00" in next(line for line in table.splitlines() if "| sac |" in line)
     assert (tmp_path / "report" / "curves.png").stat().st_size > 10_000
     assert result["table"].endswith("table.md")
@@ -163,6 +164,29 @@ def test_a_fine_tuned_run_counts_the_budget_of_its_initial_weights(tmp_path):
     assert reference["episodes"] == 1100 and reference["cpu_hours"] == pytest.approx(0.75)
     assert reference["initial_episodes"] == 1000 and reference["initial_cpu_hours"] == pytest.approx(0.5)
     assert reference["episodes_to_success_rate"]["0.5"] == [1040]
+
+
+def test_gradient_updates_are_the_counted_ones_or_marked_as_derived_from_the_schedule(tmp_path):
+    runs = [fake_run(tmp_path, "relmogen-r", seed, 0.9, 0.5) for seed in (0, 1)]
+    for run, updates in zip(runs, (1000, 1200)):
+        done = json.loads((run / "done.json").read_text())
+        (run / "done.json").write_text(json.dumps(dict(done, timesteps=2500, gradient_updates=updates)))
+    row = reference_row(write_report(runs, tmp_path / "counted"))
+    assert (row["gradient_updates"], row["gradient_updates_counted"]) == (1100, True)
+    older = json.loads((runs[1] / "done.json").read_text())
+    del older["gradient_updates"]
+    (runs[1] / "done.json").write_text(json.dumps(older))
+    config = resolve_config("PushDoorNav", "relmogen-r", seed=1, preset="cpu")
+    scheduled = scheduled_gradient_updates(config, 2500)
+    assert scheduled == 2500 // 4 - 500 // 4  # cpu preset: one update per 2 steps of its 2 environments past 500
+    row = reference_row(write_report(runs, tmp_path / "derived"))
+    assert (row["gradient_updates"], row["gradient_updates_counted"]) == ((1000 + scheduled) / 2, False)
+    line = next(line for line in (tmp_path / "derived" / "table.md").read_text().splitlines() if "relmogen-r" in line)
+    assert f"| ~{(1000 + scheduled) / 2:,.0f} |" in line
+
+
+def reference_row(report: dict) -> dict:
+    return next(row for row in json.loads(Path(report["json"]).read_text())["rows"] if row["reference"])
 
 
 def fake_report(folder, algo, overrides=()):

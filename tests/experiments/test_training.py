@@ -27,7 +27,7 @@ from relmogen.experiments.config import load_preset, read_config, resolve_config
 from relmogen.experiments.env_workers import WORKER_ERRORS, EnvWorkerError, GuardedSubprocVecEnv, last_logged_error
 from relmogen.experiments.evaluate import evaluate_path, load_policy, resolve_checkpoint
 from relmogen.experiments.report import final_evaluation
-from relmogen.experiments.budgets import stop_reason
+from relmogen.experiments.budgets import scheduled_gradient_updates, stop_reason
 from relmogen.experiments.checkpoints import best_checkpoint, evaluation_rank, latest_checkpoint, latest_replay, read_replay_file
 from relmogen.experiments.environments import env_kwargs, make_training_env, worker_env
 from relmogen.experiments.monitor import EPISODE_FIELDS, TrainingMonitor
@@ -42,11 +42,15 @@ def episodes_in(run_dir: Path) -> list[int]:
         return [int(row["episode"]) for row in csv.DictReader(handle)]
 
 
-def assert_gradient_updates_are_counted_across_sessions(run_dir: Path, first_session: dict) -> None:
-    """done.json counts every gradient step of the run, the first session's and the resumed one's."""
+def assert_gradient_updates_are_counted_across_sessions(run_dir: Path, config, first_session: dict) -> None:
+    """done.json counts every gradient step of the run, the first session's and the resumed one's;
+    the update schedule, which reports derive for runs older than the count, is right within the
+    rollout that the stop cut short."""
     model, _, _ = load_policy(run_dir)
     done = json.loads((run_dir / "done.json").read_text())
     assert 0 < first_session["gradient_updates"] < done["gradient_updates"] == model._n_updates
+    scheduled = scheduled_gradient_updates(config, first_session["timesteps"])
+    assert 0 <= scheduled - first_session["gradient_updates"] <= config.algo_params.gradient_steps
 
 
 @pytest.mark.parametrize("algo,episodes", [("sac", 5), ("oac", 5), ("relmogen-r", 3), ("relmogen-d", 3)])
@@ -80,7 +84,7 @@ def test_train_checkpoint_resume_evaluate(tmp_path, algo, episodes):
     resume(run_dir, quiet=True)
     assert latest_checkpoint(run_dir) == before and (run_dir / "done.json").is_file()
     assert episodes_in(run_dir) == list(range(1, episodes + 3))
-    assert_gradient_updates_are_counted_across_sessions(run_dir, state)
+    assert_gradient_updates_are_counted_across_sessions(run_dir, config, state)
     result = evaluate_path(run_dir, episodes=1, quiet=True)
     assert result["episodes"] == 1 and 0.0 <= result["success_rate"] <= 1.0
     assert result["policy"] == "deterministic"
