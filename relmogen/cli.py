@@ -112,7 +112,8 @@ def cmd_oracle(args: argparse.Namespace) -> int:
     result = run_oracle(args.task, args.episodes, args.policy, args.control, args.seed, args.scene,
                         args.base_planner, args.arm_planner, args.arm_collision == "on", quiet=args.json,
                         video=Path(args.video) if args.video else None, image_size=args.image_size,
-                        push_frame=args.push_frame, qmap_size=args.qmap_size, robot=args.robot)
+                        push_frame=args.push_frame, qmap_size=args.qmap_size, robot=args.robot,
+                        arm_collision_backend=args.arm_collision_backend)
     _print_metrics(result, args.json, f"{args.task}: {args.policy} subgoals")
     return 0
 
@@ -464,6 +465,9 @@ def _add_oracle(sub) -> None:
     oracle.add_argument("--scene", default=None, help="scene name, e.g. office_B (default: the task's, layout A)")
     oracle.add_argument("--robot", default="fetch", metavar="NAME", help="robot: fetch (default) or movo")
     _add_planner_options(oracle, default="rrt_connect")
+    oracle.add_argument("--arm-collision-backend", choices=["pybullet", "coal"], default=None,
+                        help="who answers the arm's collision queries in IK solves and plans (default: "
+                             "ArmConfig.collision_backend)")
     oracle.add_argument("--video", "--gif", dest="video", default=None, metavar="PATH",
                         help="also record one episode, annotated, to this .gif or .mp4")
     oracle.add_argument("--json", action="store_true", help="print the metrics as one JSON object")

@@ -14,7 +14,9 @@ including the observations at the same image size:
   within 45 deg of straight ahead, goal footprint free on the current local map), one third
   turns in place;
 * ``subgoal_arm_step_ms``: TabletopReachM arm subgoals (collision checking on) on pixels that
-  see the table top within the arm's reach, with a 0.1-0.2 m forward push.
+  see the table top within the arm's reach, with a 0.1-0.2 m forward push, with the default
+  ``arm_collision_backend``; ``arm_by_backend`` has the arm figures of every backend (the same
+  subgoals, one after the other in the same process).
 
 Headline figures are medians over the steps whose plan was found and executed; ``*_all_ms``
 are medians over every attempt and ``*_plan_rate`` the fraction of attempts with a plan;
@@ -30,6 +32,7 @@ import pybullet as p
 
 from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.envs.subgoal_controls import BASE_ANGLE_RANGE, PUSH_MAX
+from relmogen.motion_generation.arm import COLLISION_BACKENDS, ArmConfig
 from relmogen.motion_generation.base_planner import FootprintChecker
 
 FORWARD_SECTOR = np.deg2rad(45.0)
@@ -190,13 +193,21 @@ def _subgoal_figures(kind: str, times: np.ndarray, found: np.ndarray, floor: flo
 
 
 def bench_subgoal_steps(samples: int, image_size: int, seed: int, floor: float) -> dict:
-    """Lifted base steps (PointNav) and arm steps (TabletopReachM), both ``subgoal-r``."""
-    figures = {"subgoal_samples": samples}
-    runs = (("base", "PointNav", forward_or_turn_action), ("arm", "TabletopReachM", table_reach_action))
-    for kind, task, choose_action in runs:
-        env = RelmogenEnv(task=task, control="subgoal-r", image_size=image_size, arm_collision=True)
-        try:
-            figures.update(_subgoal_figures(kind, *time_subgoal_steps(env, choose_action, samples, seed), floor))
-        finally:
-            env.close()
+    """Lifted base steps (PointNav) and arm steps (TabletopReachM), both ``subgoal-r``; the arm's
+    with each collision backend (``arm_by_backend``), the headline figures with the default one."""
+    figures = {"subgoal_samples": samples, "arm_collision_backend": ArmConfig.collision_backend}
+    figures.update(_subgoal_run("base", "PointNav", forward_or_turn_action, samples, image_size, seed, floor))
+    by_backend = {backend: _subgoal_run("arm", "TabletopReachM", table_reach_action, samples, image_size, seed, floor,
+                                        arm_collision_backend=backend) for backend in COLLISION_BACKENDS}
+    figures.update(by_backend[ArmConfig.collision_backend])
+    figures["arm_by_backend"] = by_backend
     return figures
+
+
+def _subgoal_run(kind: str, task: str, choose_action, samples: int, image_size: int, seed: int, floor: float,
+                 **control_options) -> dict:
+    env = RelmogenEnv(task=task, control="subgoal-r", image_size=image_size, arm_collision=True, **control_options)
+    try:
+        return _subgoal_figures(kind, *time_subgoal_steps(env, choose_action, samples, seed), floor)
+    finally:
+        env.close()

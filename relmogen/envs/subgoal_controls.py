@@ -55,7 +55,8 @@ can choose differently after one instead of repeating it.
     channel, so the feedback reaches each cell's Q values without any other change.
 
 ``arm_rrt`` = (iterations, restarts) of the arm's RRT-Connect; the default (20, 2) is the
-paper's planner budget (``ArmConfig.rrt_iterations``).
+paper's planner budget (``ArmConfig.rrt_iterations``). ``arm_collision_backend`` answers the arm's
+collision queries inside IK solves and plans (``ArmConfig.collision_backend``: coal or pybullet).
 """
 
 from __future__ import annotations
@@ -140,7 +141,7 @@ class SubgoalControl(Control):
     def __init__(self, env: RelmogenEnv, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
                  arm_collision: bool = True, base_goal: str = "strict", noop_cost: float = 0.0,
                  arm_rrt: tuple[int, int] = (ArmConfig.rrt_iterations, ArmConfig.rrt_restarts),
-                 base_goal_clearance: float = 0.0):
+                 base_goal_clearance: float = 0.0, arm_collision_backend: str = ArmConfig.collision_backend):
         if not (np.isfinite(noop_cost) and noop_cost >= 0):
             raise ValueError(f"noop_cost must be a finite number >= 0, got {noop_cost!r}")
         self.env, self.noop_cost = env, float(noop_cost)
@@ -149,7 +150,8 @@ class SubgoalControl(Control):
         config = MotionGeneratorConfig(base_planner=base_planner, arm_planner=arm_planner,
                                        arm_collision_checking=arm_collision, base_goal=base_goal,
                                        base_goal_clearance=float(base_goal_clearance),
-                                       arm=ArmConfig(rrt_iterations=int(arm_rrt[0]), rrt_restarts=int(arm_rrt[1])))
+                                       arm=ArmConfig(rrt_iterations=int(arm_rrt[0]), rrt_restarts=int(arm_rrt[1]),
+                                                     collision_backend=arm_collision_backend))
         self.mg = MotionGenerator(env, config)
 
     def execute_base(self, goal_robot_frame: np.ndarray) -> tuple[SubgoalResult, RewardAccumulator]:

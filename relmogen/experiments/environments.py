@@ -25,7 +25,8 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
         kwargs.update(base_planner=base_planner or config.env.base_planner,
                       arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
                       base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
-                      arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance)
+                      arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance,
+                      arm_collision_backend=config.env.arm_collision_backend)
     if config.control in ("subgoal-r", "subgoal-d") and config.env.subgoal_feedback:
         kwargs["subgoal_feedback"] = True
     if config.control == "subgoal-d":

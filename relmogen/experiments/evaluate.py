@@ -121,7 +121,8 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
         settings.update(base_planner=base_planner or config.env.base_planner,
                         arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
                         base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
-                        arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance)
+                        arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance,
+                        arm_collision_backend=config.env.arm_collision_backend)
     if config.control in ("subgoal-r", "subgoal-d"):
         settings["subgoal_feedback"] = config.env.subgoal_feedback
     result = {**settings, **aggregate(records)}

@@ -9,6 +9,7 @@ from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.envs.subgoal_controls import SubgoalRControl
 from relmogen.experiments.rollout import aggregate, run_episode, run_episodes
 from relmogen.experiments.video import VIDEO_FPS, AnnotatedRecorder
+from relmogen.motion_generation.arm import ArmConfig
 from relmogen.simulation.views import check_animation_path, write_animation
 
 ORACLE_CONTROLS = ("subgoal-r", "subgoal-d")
@@ -17,7 +18,8 @@ ORACLE_CONTROLS = ("subgoal-r", "subgoal-d")
 def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = "subgoal-r", seed: int = 0,
                scene: str | None = None, base_planner: str = "rrt_connect", arm_planner: str = "rrt_connect",
                arm_collision: bool = True, quiet: bool = False, video: Path | None = None, image_size: int = 128,
-               push_frame: str = "base", qmap_size: int | None = None, robot: str = "fetch") -> dict:
+               push_frame: str = "base", qmap_size: int | None = None, robot: str = "fetch",
+               arm_collision_backend: str | None = None) -> dict:
     """Oracles decide in ``subgoal-r`` actions. Through ``control="subgoal-d"`` each one is
     executed as the nearest discrete action (``SubgoalDControl.nearest_index``): the ceiling of
     SGP-D's action space at that image size and push frame. ``video`` (.gif or .mp4) records one
@@ -31,8 +33,10 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
                          "relmogen analyse random-sgpd "
                          "(uniform over the allowed actions, as relmogen-d explores)")
     options = {"push_frame": push_frame, "qmap_size": qmap_size} if control == "subgoal-d" else {}
+    arm_collision_backend = arm_collision_backend or ArmConfig.collision_backend
     env = RelmogenEnv(task=task, control=control, scene=scene, base_planner=base_planner, arm_planner=arm_planner,
-                      arm_collision=arm_collision, image_size=image_size, robot=robot, **options)
+                      arm_collision=arm_collision, arm_collision_backend=arm_collision_backend, image_size=image_size,
+                      robot=robot, **options)
     agent = make_policy(policy, env)
     act = agent.act if control == "subgoal-r" else (lambda obs: env.control.nearest_index(agent.act(obs)))
     records = run_episodes(env, act, episodes, seed, quiet, on_reset=agent.reset,
@@ -41,7 +45,7 @@ def run_oracle(task: str, episodes: int, policy: str = "oracle", control: str = 
         options["qmap_size"] = env.control.q
     result = {"task": task, "policy": policy, "control": control, "image_size": image_size, **options,
               "robot": robot, "scene": env.scene.name, "base_planner": base_planner, "arm_planner": arm_planner,
-              "arm_collision": arm_collision, **aggregate(records)}
+              "arm_collision": arm_collision, "arm_collision_backend": arm_collision_backend, **aggregate(records)}
     if video is not None:
         recorder = AnnotatedRecorder()
         run_episode(env, act, seed, on_reset=agent.reset, recorder=recorder)

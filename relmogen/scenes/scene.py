@@ -18,6 +18,7 @@ from relmogen.scenes.house import house_a, house_b
 from relmogen.scenes.navigation import (FREE_POINT_MARGIN, ROBOT_RADIUS, GeodesicField, StartGoal, TraversabilityMap,
                                         sample_free_point, sample_start_goal)
 from relmogen.scenes.office import office_a, office_b
+from relmogen.simulation.shapes import box_collision_shape, record_body
 
 MAX_SHAPES_PER_COMPOUND = 16  # PyBullet silently drops extra shapes of a shape array
 
@@ -50,10 +51,9 @@ def _spawn_compound(boxes: list[Box], client: int) -> int:
                                           physicsClientId=client)
     collision = -1
     if boxes[0].collides:
-        collision = p.createCollisionShapeArray([p.GEOM_BOX] * n, halfExtents=half,
-                                                collisionFramePositions=pos, physicsClientId=client)
-    body = p.createMultiBody(0.0, collision, visual, [0, 0, 0], useMaximalCoordinates=True,
-                             physicsClientId=client)
+        collision = box_collision_shape(client, half, pos, compound=True)
+    body = record_body(client, p.createMultiBody(0.0, collision, visual, [0, 0, 0], useMaximalCoordinates=True,
+                                                 physicsClientId=client), {-1: collision})
     if visual >= 0:
         p.changeVisualShape(body, -1, rgbaColor=list(boxes[0].rgba), physicsClientId=client)
     return body

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import pybullet as p
 
+from relmogen.simulation.shapes import forget_client
+
 GRAVITY = -9.81
 
 
@@ -30,6 +32,7 @@ class World:
         self.client = p.connect(p.DIRECT)
         if self.client < 0:
             raise RuntimeError("could not start a PyBullet DIRECT client")
+        forget_client(self.client)  # shapes recorded for an earlier connection with this id
         p.setGravity(0.0, 0.0, GRAVITY, physicsClientId=self.client)
         p.setPhysicsEngineParameter(
             fixedTimeStep=self.settings.time_step,
@@ -59,6 +62,7 @@ class World:
     def close(self) -> None:
         if self.client is not None and p.isConnected(self.client):
             p.disconnect(self.client)
+            forget_client(self.client)
         self.client = None
 
     def __del__(self):

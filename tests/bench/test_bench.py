@@ -89,6 +89,9 @@ def test_env_bench_json_has_subgoal_figures(capsys):
     assert all(math.isfinite(v) and v > 0 for v in result["reset_ms_by_task"].values())
     assert_rate(result["subgoal_base_plan_rate"])
     assert_rate(result["subgoal_arm_plan_rate"])
+    assert set(result["arm_by_backend"]) == {"pybullet", "coal"}  # the same subgoals with each collision backend
+    default = result["arm_by_backend"][result["arm_collision_backend"]]
+    assert default["subgoal_arm_step_all_ms"] == result["subgoal_arm_step_all_ms"]
     host = result["host"]  # every bench JSON names its host
     assert host["host_kind"] in ("avx512-amx", "avx512", "avx2", "other") and host["torch_threads"] >= 1
     assert set(host["isa"]) == {"avx2", "avx512f", "avx512_bf16", "amx_tile", "amx_bf16"}

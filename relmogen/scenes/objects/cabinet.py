@@ -28,6 +28,7 @@ import numpy as np
 import pybullet as p
 
 from relmogen.simulation.frames import FacesYaw
+from relmogen.simulation.shapes import box_collision_shape, record_body
 
 WIDTH, DEPTH, HEIGHT = 0.5, 0.5, 0.85
 FRONT_THICKNESS = 0.02
@@ -59,9 +60,7 @@ DOOR_PHYSICS = JointPhysics(mass=2.0, friction=0.6, damping=1.0)
 def _box(client: int, half_extents, offset, with_collision: bool = True) -> tuple[int, int]:
     visual = p.createVisualShape(p.GEOM_BOX, halfExtents=list(half_extents), visualFramePosition=list(offset),
                                  physicsClientId=client)
-    collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half_extents),
-                                       collisionFramePosition=list(offset), physicsClientId=client) \
-        if with_collision else -1
+    collision = box_collision_shape(client, [half_extents], [offset]) if with_collision else -1
     return collision, visual
 
 
@@ -74,9 +73,7 @@ def _drawer_shapes(client: int) -> tuple[int, int]:
     pos = [[0.5 * FRONT_THICKNESS, 0, 0], [-0.5 * tray_depth, 0, -0.01]]
     visual = p.createVisualShapeArray([p.GEOM_BOX] * 2, halfExtents=half, visualFramePositions=pos,
                                       physicsClientId=client)
-    collision = p.createCollisionShapeArray([p.GEOM_BOX] * 2, halfExtents=half, collisionFramePositions=pos,
-                                            physicsClientId=client)
-    return collision, visual
+    return box_collision_shape(client, half, pos), visual
 
 
 def door_width() -> float:
@@ -134,6 +131,7 @@ class Cabinet(FacesYaw):
             linkJointAxis=[spec["axis"] for spec in links],
             physicsClientId=client,
         )
+        record_body(client, body, {-1: carcass[0], **{link: spec["shapes"][0] for link, spec in enumerate(links)}})
         for link, rgba in ((-1, CARCASS_RGBA), (DRAWER_LINK, FRONT_RGBA), (DOOR_LINK, FRONT_RGBA),
                            (DRAWER_HANDLE_LINK, HANDLE_RGBA), (DOOR_HANDLE_LINK, HANDLE_RGBA)):
             p.changeVisualShape(body, link, rgbaColor=list(rgba), physicsClientId=client)

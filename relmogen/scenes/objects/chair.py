@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from relmogen.simulation.shapes import box_collision_shape, record_body
+
 RGBA = tuple[float, float, float, float]
 CHAIR_RGBA: RGBA = (0.10, 0.55, 0.70, 1.0)  # teal blue: unlike the wooden table and floor
 
@@ -84,13 +86,14 @@ class Chair:
         g, client = self.geometry, self.client
         centres, halves = zip(*g.boxes())
         n = len(centres)
-        collision = p.createCollisionShapeArray([p.GEOM_BOX] * n, halfExtents=list(halves),
-                                                collisionFramePositions=list(centres), physicsClientId=client)
+        collision = box_collision_shape(client, halves, centres, compound=True)
         visual = p.createVisualShapeArray([p.GEOM_BOX] * n, halfExtents=list(halves),
                                           visualFramePositions=list(centres), rgbaColors=[list(rgba)] * n,
                                           physicsClientId=client)
-        body = p.createMultiBody(g.mass, collision, visual, [0, 0, 0],
-                                 baseInertialFramePosition=[0.0, 0.0, g.com_height], physicsClientId=client)
+        body = record_body(client, p.createMultiBody(g.mass, collision, visual, [0, 0, 0],
+                                                     baseInertialFramePosition=[0.0, 0.0, g.com_height],
+                                                     physicsClientId=client), {-1: collision},
+                           base_inertial_position=(0.0, 0.0, g.com_height))
         p.changeDynamics(body, -1, lateralFriction=g.friction, spinningFriction=0.0, rollingFriction=0.0,
                          linearDamping=0.0, angularDamping=0.0, localInertiaDiagonal=g.inertia(),
                          physicsClientId=client)

@@ -33,6 +33,7 @@ import numpy as np
 import pybullet as p
 
 from relmogen.scenes.geometry import Doorway
+from relmogen.simulation.shapes import box_collision_shape, record_body
 
 PANEL_THICKNESS = 0.04
 HINGE_INSET = 0.03  # hinge axis from the hinge-side jamb (clears the jamb at any angle)
@@ -61,17 +62,13 @@ def _door_shapes(client: int, panel_half, bar_half, panel_offset, bar_offset) ->
     half, offsets = [list(panel_half), list(bar_half)], [list(panel_offset), list(bar_offset)]
     visual = p.createVisualShapeArray([p.GEOM_BOX] * 2, halfExtents=half, visualFramePositions=offsets,
                                       rgbaColors=[list(DOOR_RGBA), list(BAR_RGBA)], physicsClientId=client)
-    collision = p.createCollisionShapeArray([p.GEOM_BOX] * 2, halfExtents=half, collisionFramePositions=offsets,
-                                            physicsClientId=client)
-    return collision, visual
+    return box_collision_shape(client, half, offsets), visual
 
 
 def _panel_shapes(client: int, half_extents, offset, rgba) -> tuple[int, int]:
     visual = p.createVisualShape(p.GEOM_BOX, halfExtents=list(half_extents), visualFramePosition=list(offset),
                                  rgbaColor=list(rgba), physicsClientId=client)
-    collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half_extents),
-                                       collisionFramePosition=list(offset), physicsClientId=client)
-    return collision, visual
+    return box_collision_shape(client, [half_extents], [offset]), visual
 
 
 def _frame_quaternion(x_axis: np.ndarray, y_axis: np.ndarray) -> tuple[float, ...]:
@@ -100,13 +97,13 @@ class HingedDoor:
         bar_half = (0.5 * BAR_DEPTH, 0.5 * (BAR_RADII[1] - BAR_RADII[0]), 0.5 * BAR_HEIGHT)
         bar_offset = (half[0] + bar_half[0], 0.5 * sum(BAR_RADII), 0.0)
         collision, visual = _door_shapes(self.client, half, bar_half, (0.0, HINGE_GAP + half[1], 0.0), bar_offset)
-        return p.createMultiBody(
+        return record_body(self.client, p.createMultiBody(
             baseMass=0.0, basePosition=[0, 0, -10], linkMasses=[self.physics.mass],
             linkCollisionShapeIndices=[collision], linkVisualShapeIndices=[visual],
             linkPositions=[[0, 0, 0]], linkOrientations=[[0, 0, 0, 1]],
             linkInertialFramePositions=[[0.0, HINGE_GAP + half[1], 0.0]],
             linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0],
-            linkJointTypes=[p.JOINT_REVOLUTE], linkJointAxis=[[0, 0, 1]], physicsClientId=self.client)
+            linkJointTypes=[p.JOINT_REVOLUTE], linkJointAxis=[[0, 0, 1]], physicsClientId=self.client), {0: collision})
 
     # ------------------------------------------------------------------ pose
     def place(self, hinge_side: int) -> None:
@@ -214,13 +211,14 @@ class WallButton:
         c = self.client
         plate = _panel_shapes(c, PLATE_HALF, (0.0, 0.0, 0.0), PLATE_RGBA)
         cap = _panel_shapes(c, CAP_HALF, (CAP_HALF[0], 0.0, 0.0), CAP_RGBA)
-        return p.createMultiBody(
+        return record_body(c, p.createMultiBody(
             baseMass=0.0, baseCollisionShapeIndex=plate[0], baseVisualShapeIndex=plate[1],
             basePosition=[0, 0, -10], linkMasses=[BUTTON_MASS], linkCollisionShapeIndices=[cap[0]],
             linkVisualShapeIndices=[cap[1]], linkPositions=[[PLATE_HALF[0], 0, 0]],
             linkOrientations=[[0, 0, 0, 1]], linkInertialFramePositions=[[CAP_HALF[0], 0, 0]],
             linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0],
-            linkJointTypes=[p.JOINT_PRISMATIC], linkJointAxis=[[-1, 0, 0]], physicsClientId=c)
+            linkJointTypes=[p.JOINT_PRISMATIC], linkJointAxis=[[-1, 0, 0]], physicsClientId=c),
+            {-1: plate[0], 0: cap[0]})
 
     def place(self, wall_point_xy, out_normal_xy, height: float) -> None:
         """Mount the plate on the wall face at ``wall_point_xy``; ``out_normal_xy`` points

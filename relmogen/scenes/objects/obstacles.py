@@ -19,6 +19,7 @@ import numpy as np
 import pybullet as p
 
 from relmogen.simulation.frames import to_local
+from relmogen.simulation.shapes import box_collision_shape, record_body
 
 RGBA = tuple[float, float, float, float]
 OBSTACLE_SIZE = (0.7, 0.7, 1.2)  # x, y, z metres
@@ -49,10 +50,11 @@ class BoxObstacle:
 
     def _spawn(self) -> int:
         half, client = self.half_extents.tolist(), self.client
-        collision = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client)
+        collision = box_collision_shape(client, [half])
         visual = p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=list(self.spec.rgba),
                                      physicsClientId=client)
-        body = p.createMultiBody(self.spec.mass, collision, visual, [0, 0, -10.0], physicsClientId=client)
+        body = record_body(client, p.createMultiBody(self.spec.mass, collision, visual, [0, 0, -10.0],
+                                                     physicsClientId=client), {-1: collision})
         p.changeDynamics(body, -1, lateralFriction=self.spec.friction, spinningFriction=0.0, rollingFriction=0.0,
                          linearDamping=0.0, angularDamping=0.0, physicsClientId=client)
         return body
