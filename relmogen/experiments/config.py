@@ -64,9 +64,9 @@ class EnvConfig(_Strict):
     # planner budget. (100, 4) turned most of the shipped policy's "no arm plan" subgoals into plans
     # (1.4 -> 0.3 per episode) for +1 CPU s per episode (results/pushdoornav-mg/)
     arm_rrt: tuple[int, int] = (20, 2)
-    # subgoal controls: who answers the arm's collision queries inside IK solves and plans: pybullet, or
-    # coal (Pinocchio + Coal in C++, ~5x cheaper checks; motion_generation/coal_collision.py; ArmConfig)
-    arm_collision_backend: Literal["pybullet", "coal"] = "pybullet"
+    # subgoal controls: who answers the arm's collision queries inside IK solves and plans: coal (Pinocchio
+    # + Coal in C++, ~5x cheaper checks; motion_generation/coal_collision.py; ArmConfig) or pybullet
+    arm_collision_backend: Literal["pybullet", "coal"] = "coal"
     robot: str = "fetch"  # the embodiment: a folder of relmogen/robots/assets with a spec.yaml (fetch, movo)
     # rgbd: camera, LiDAR and task vector (the paper's); state: one low-dimensional vector of robot pose,
     # task vector and task-object poses (RelmogenEnv's obs_mode), for relmogen-r, sac and oac

@@ -59,10 +59,9 @@ class ArmConfig:
     ik_tolerance: float = 0.05  # metres, forward-kinematics check
     joint_resolution: float = 0.05  # rad (m for the torso): planner step
     collision_checking: bool = True  # the paper trains without it and evaluates with it
-    # who answers collision queries inside IK solves and plans (COLLISION_BACKENDS). coal: ~5x cheaper
-    # checks, arm subgoals ~1.5x cheaper, but ArrangeKitchenMM's oracle closes 0.3-0.4 fewer items
-    # (two 50-episode sets), so not yet the default (docs/benchmarks.md)
-    collision_backend: str = "pybullet"
+    # who answers collision queries inside IK solves and plans (COLLISION_BACKENDS): coal, ~5x cheaper
+    # checks and ~1.5x cheaper arm subgoals, every oracle figure within noise (docs/benchmarks.md)
+    collision_backend: str = "coal"
     # The gripper touches the subgoal surface by design, so its links may penetrate other
     # bodies by this much; every other arm link must stay clear.
     gripper_penetration_allowance: float = 0.03

@@ -9,7 +9,9 @@ arm can reach (``relmogen.simulation.shapes``), placed in the robot's base frame
 the PyBullet check tests:
 
 * every link moved by the planning joints against every world box, touching allowed to
-  ``-threshold`` metres deep (the gripper's penetration allowances, as a negative security margin);
+  ``-threshold`` metres deep (the gripper's penetration allowances, as a negative security margin),
+  except link pairs whose contacts are off (``shapes.ignore_contacts``: the cabinets and the
+  gripper fingers), which PyBullet's contact query leaves out too;
 * the checker's self-collision pairs.
 
 A query then sets only the planning joints. The answers differ from PyBullet's only near contact:
@@ -27,7 +29,7 @@ import pinocchio as pin
 import pybullet as p
 
 from relmogen.robots.robot import BASE_LINK, Robot
-from relmogen.simulation.shapes import base_inertial_position, body_boxes
+from relmogen.simulation.shapes import base_inertial_position, body_boxes, contacts_ignored
 
 import coal  # noqa: E402  (after pinocchio, which loads the same Coal library)
 
@@ -105,9 +107,12 @@ class CoalArmCollision:
         geometry = self.robot_geometry.clone()
         margins = [SELF_MARGIN_M] * len(geometry.collisionPairs)  # the self pairs
         world = self._add_world_boxes(geometry)
+        robot = self.robot.robot_id
         for link, link_threshold in world_thresholds.items():
             for robot_index in self.geometries_of(link):
-                for world_index, body in world:
+                for world_index, body, body_link in world:
+                    if contacts_ignored(self.client, robot, link, body, body_link):
+                        continue
                     geometry.addCollisionPair(pin.CollisionPair(robot_index, world_index))
                     margins.append(target_threshold if body == target_body and link in gripper_links
                                    else link_threshold)
@@ -138,26 +143,26 @@ class CoalArmCollision:
             q[slot:slot + count] = [np.cos(state[0]), np.sin(state[0])] if count == 2 else [state[0]]
         return q
 
-    def _add_world_boxes(self, geometry: pin.GeometryModel) -> list[tuple[int, int]]:
+    def _add_world_boxes(self, geometry: pin.GeometryModel) -> list[tuple[int, int, int]]:
         """Adds the world's shapes within the arm's reach, in the base frame; returns
-        (geometry index, body) per shape."""
+        (geometry index, body, link) per shape."""
         to_base = p.invertTransform(*self.robot.link_pose(BASE_LINK))
         arm_base = tuple(self.robot.arm_base_position())
         added = []
         for body in self._other_bodies():
-            for number, (shape, pose, radius) in enumerate(self._world_shapes(body)):
+            for number, (link, shape, pose, radius) in enumerate(self._world_shapes(body)):
                 if radius is not None and math.dist(pose[0], arm_base) > self._reach + radius:
                     continue
                 position, orientation = p.multiplyTransforms(*to_base, *pose)
                 placement = pin.SE3(np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3),
                                     np.asarray(position, dtype=np.float64))
                 index = geometry.addGeometryObject(pin.GeometryObject(f"world_{body}_{number}", 0, 0, placement, shape))
-                added.append((index, body))
+                added.append((index, body, link))
         return added
 
-    def _world_shapes(self, body: int) -> list[tuple[object, tuple, float | None]]:
-        """(Coal shape, world pose, bounding radius or None if unbounded) of each collision shape of
-        ``body``: its recorded boxes, else what PyBullet reports for a URDF body."""
+    def _world_shapes(self, body: int) -> list[tuple[int, object, tuple, float | None]]:
+        """(link, Coal shape, world pose, bounding radius or None if unbounded) of each collision
+        shape of ``body``: its recorded boxes, else what PyBullet reports for a URDF body."""
         links = body_boxes(self.client, body)
         if links is None:
             return self._urdf_shapes(body)
@@ -166,10 +171,11 @@ class CoalArmCollision:
             frame = self._link_frame(body, link)
             for box in boxes:
                 pose = p.multiplyTransforms(*frame, box.position, box.orientation)
-                shapes.append((coal.Box(*(2.0 * np.asarray(box.half_extents))), pose, math.hypot(*box.half_extents)))
+                shapes.append((link, coal.Box(*(2.0 * np.asarray(box.half_extents))), pose,
+                               math.hypot(*box.half_extents)))
         return shapes
 
-    def _urdf_shapes(self, body: int) -> list[tuple[object, tuple, float | None]]:
+    def _urdf_shapes(self, body: int) -> list[tuple[int, object, tuple, float | None]]:
         """A URDF body's boxes, spheres, capsules and planes (PyBullet gives their frames relative
         to each link's centre of mass); a mesh, or a body PyBullet cannot describe, is an error."""
         client, shapes = self.client, []
@@ -185,7 +191,7 @@ class CoalArmCollision:
             for shape in described:
                 kind, dimensions, position, orientation = shape[2], shape[3], shape[5], shape[6]
                 coal_shape, radius = _coal_shape(body, kind, dimensions)
-                shapes.append((coal_shape, p.multiplyTransforms(*com, position, orientation), radius))
+                shapes.append((link, coal_shape, p.multiplyTransforms(*com, position, orientation), radius))
         return shapes
 
     def _other_bodies(self) -> list[int]:

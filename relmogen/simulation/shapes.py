@@ -4,8 +4,9 @@ PyBullet cannot return the collision geometry of a body built with ``createMulti
 programmatic shapes (``getCollisionShapeData`` fails on them), and every collidable body of the
 scenes and task objects is such a body made of boxes. Shapes made with ``box_collision_shape``
 are recorded per (client, shape id), and ``record_body`` ties a body's base (link -1) and links to
-them, so that ``body_boxes`` gives back each link's boxes in its link frame. The arm's C++
-collision backend (``relmogen.motion_generation.coal_collision``) builds its world from them.
+them, so that ``body_boxes`` gives back each link's boxes in its link frame. Link pairs whose
+contacts are turned off go through ``ignore_contacts``. The arm's C++ collision backend
+(``relmogen.motion_generation.coal_collision``) builds its world from both.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ class LocalBox:
 _SHAPES: dict[tuple[int, int], tuple[LocalBox, ...]] = {}
 _BODIES: dict[tuple[int, int], dict[int, tuple[LocalBox, ...]]] = {}
 _BASE_INERTIAL: dict[tuple[int, int], Vec3] = {}
+_IGNORED: dict[int, set[tuple[int, int, int, int]]] = {}  # client -> (body, link, body, link) without contacts
 
 
 def box_collision_shape(client: int, half_extents: Sequence[Sequence[float]],
@@ -78,3 +80,16 @@ def forget_client(client: int) -> None:
     for registry in (_SHAPES, _BODIES, _BASE_INERTIAL):
         for key in [key for key in registry if key[0] == client]:
             del registry[key]
+    _IGNORED.pop(client, None)
+
+
+def ignore_contacts(client: int, body_a: int, link_a: int, body_b: int, link_b: int) -> None:
+    """No contacts between the two links (``setCollisionFilterPair``), recorded: a collision
+    check that does not ask PyBullet for contacts must leave the pair out too."""
+    p.setCollisionFilterPair(body_a, body_b, link_a, link_b, 0, physicsClientId=client)
+    _IGNORED.setdefault(client, set()).update({(body_a, link_a, body_b, link_b), (body_b, link_b, body_a, link_a)})
+
+
+def contacts_ignored(client: int, body_a: int, link_a: int, body_b: int, link_b: int) -> bool:
+    """Whether ``ignore_contacts`` turned the pair's contacts off."""
+    return (body_a, link_a, body_b, link_b) in _IGNORED.get(client, ())

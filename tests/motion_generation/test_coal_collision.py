@@ -13,7 +13,7 @@ from relmogen.motion_generation.arm import ArmCollisionChecker, ArmConfig, ArmMo
 from relmogen.motion_generation.coal_collision import UnknownCollisionGeometry
 from relmogen.robots.robot import Robot
 from relmogen.robots.spec import load_spec
-from relmogen.simulation.shapes import box_collision_shape, record_body
+from relmogen.simulation.shapes import box_collision_shape, ignore_contacts, record_body
 from relmogen.simulation.world import World
 
 
@@ -82,6 +82,21 @@ def test_coal_keeps_the_grippers_allowances_in_the_pushed_body_and_in_any_other(
             checker.target_body = target
             verdicts.append(answers(checker, robot, reach[None])[0])
         assert verdicts == [True, False], checker.backend  # 5 cm: beyond 3 cm, within the pushed body's 8
+
+
+def test_link_pairs_without_contacts_are_left_out_as_pybullet_leaves_them_out(world, robot):
+    arm = ArmMotion(world.client, robot)
+    reach = arm.ik(np.array([0.8, 0.0, 0.9]), np.random.default_rng(0))
+    robot.set_joint_positions(robot.arm_joint_indices, reach)
+    finger = robot.link_index("l_gripper_finger_link")
+    finger_position = robot.link_pose(finger)[0]
+    robot.set_joint_positions(robot.arm_joint_indices, arm.default_config)
+    pin_box = add_box(world.client, [0.005, 0.005, 0.005], finger_position)  # inside the finger alone
+    for checker in checkers(world.client, robot, allowance=0.0):
+        assert answers(checker, robot, reach[None])[0], checker.backend
+    ignore_contacts(world.client, robot.robot_id, finger, pin_box, -1)
+    for checker in checkers(world.client, robot, allowance=0.0):
+        assert not answers(checker, robot, reach[None])[0], checker.backend
 
 
 def test_a_moved_body_is_seen_by_the_next_hold(world, robot):

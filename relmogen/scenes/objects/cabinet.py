@@ -28,7 +28,7 @@ import numpy as np
 import pybullet as p
 
 from relmogen.simulation.frames import FacesYaw
-from relmogen.simulation.shapes import box_collision_shape, record_body
+from relmogen.simulation.shapes import box_collision_shape, ignore_contacts, record_body
 
 WIDTH, DEPTH, HEIGHT = 0.5, 0.5, 0.85
 FRONT_THICKNESS = 0.02
@@ -157,7 +157,7 @@ class Cabinet(FacesYaw):
         arm subgoal can start; the palm does the pushing instead."""
         for own in (-1, DRAWER_LINK, DRAWER_HANDLE_LINK, DOOR_LINK, DOOR_HANDLE_LINK):
             for link in links:
-                p.setCollisionFilterPair(self.body, body, own, link, 0, physicsClientId=self.client)
+                ignore_contacts(self.client, self.body, own, body, link)
 
     # ------------------------------------------------------------------ episode set-up
     def place(self, front_xy, yaw: float) -> None:
