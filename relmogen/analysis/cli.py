@@ -137,6 +137,13 @@ def cmd_arm_settings(args) -> int:
     return emit(args, rows)
 
 
+def cmd_collision_backends(args) -> int:
+    from relmogen.analysis.collision_backends import ARM_TASKS, agreement_rows
+
+    rows, summary = agreement_rows(args.tasks or list(ARM_TASKS), args.configurations, args.seeds)
+    return emit(args, rows, summary)
+
+
 def cmd_door_front(args) -> int:
     from relmogen.analysis.arm import door_front_plan_rates, parse_setting
 
@@ -328,6 +335,13 @@ def add_analyse_parser(sub) -> None:
                    help="random: environment keyword argument, e.g. base_goal=nearest_free")
     _json_flag(p)
     p.set_defaults(func=cmd_arm_settings)
+
+    p = topics.add_parser("collision-backends", help="the arm's collision backends on the same random configurations")
+    p.add_argument("--tasks", nargs="+", default=None, help="tasks (default: the six with arm subgoals)")
+    p.add_argument("--configurations", type=_positive, default=600, help="arm configurations per task and seed")
+    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2], help="episode seeds (default 0 1 2)")
+    _json_flag(p)
+    p.set_defaults(func=cmd_collision_backends)
 
     p = topics.add_parser("door-front", help="plan rate of arm subgoals before PushDoorNav's door per ArmConfig setting")
     p.add_argument("settings", nargs="+", metavar="NAME[=key:value,...]", help="settings to compare")
