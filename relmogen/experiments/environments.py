@@ -22,17 +22,22 @@ def env_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | Non
     if config.env.episode_steps is not None:
         kwargs["episode_steps"] = config.env.episode_steps
     if config.control != "joint":
-        kwargs.update(base_planner=base_planner or config.env.base_planner,
-                      arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
-                      base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
-                      arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance,
-                      arm_collision_backend=config.env.arm_collision_backend)
+        kwargs.update(motion_generator_kwargs(config, arm_collision, base_planner, arm_planner))
     if config.control in ("subgoal-r", "subgoal-d") and config.env.subgoal_feedback:
         kwargs["subgoal_feedback"] = True
     if config.control == "subgoal-d":
         kwargs.update(push_frame=config.env.push_frame, qmap_size=config.env.qmap_size,
                       reach_mask=config.env.reach_mask)
     return kwargs
+
+
+def motion_generator_kwargs(config: TrainConfig, arm_collision: bool, base_planner: str | None = None,
+                            arm_planner: str | None = None) -> dict:
+    """A subgoal control's motion-generator settings (planners default to the config's)."""
+    return dict(base_planner=base_planner or config.env.base_planner, arm_planner=arm_planner or config.env.arm_planner,
+                arm_collision=arm_collision, base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
+                arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance,
+                arm_collision_backend=config.env.arm_collision_backend)
 
 
 def training_env_kwargs(config: TrainConfig) -> list[dict]:

@@ -52,7 +52,7 @@ from relmogen.experiments.loading import load_checkpoint, load_policy, resolve_c
 from relmogen.experiments.loading import load_trained, policy_act
 from relmogen.experiments.rollout import aggregate, run_episodes
 from relmogen.tasks import task_class
-from relmogen.experiments.environments import env_kwargs
+from relmogen.experiments.environments import env_kwargs, motion_generator_kwargs
 from relmogen.experiments.video import VIDEO_FPS, AnnotatedRecorder
 from relmogen.simulation.views import check_animation_path, write_animation
 
@@ -118,11 +118,7 @@ def evaluate_model(model, config: TrainConfig, episodes: int, seed: int = 0, bas
     if stochastic and config.algo == "relmogen-d":
         settings["epsilon"] = float(model.exploration_rate)
     if config.control != "joint":
-        settings.update(base_planner=base_planner or config.env.base_planner,
-                        arm_planner=arm_planner or config.env.arm_planner, arm_collision=arm_collision,
-                        base_goal=config.env.base_goal, noop_cost=config.env.noop_cost,
-                        arm_rrt=tuple(config.env.arm_rrt), base_goal_clearance=config.env.base_goal_clearance,
-                        arm_collision_backend=config.env.arm_collision_backend)
+        settings.update(motion_generator_kwargs(config, arm_collision, base_planner, arm_planner))
     if config.control in ("subgoal-r", "subgoal-d"):
         settings["subgoal_feedback"] = config.env.subgoal_feedback
     result = {**settings, **aggregate(records)}
