@@ -51,6 +51,7 @@ def learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool,
             monitor.checkpoint(with_replay=True)
             if stopped:
                 raise TrainingStopped(run_dir, state["episodes"], monitor.stop_reason())
+        reason = monitor.stop_reason()  # while the environment workers live: their CPU time counts
     except EnvWorkerError as error:  # keep what was learned, then report it
         monitor.progress.stop()
         monitor.checkpoint(with_replay=True)
@@ -59,7 +60,7 @@ def learn(run_dir: Path, config: TrainConfig, model, state: dict, quiet: bool,
     finally:
         monitor.close()
         model.get_env().close()
-    write_done(run_dir, state, monitor.stop_reason())
+    write_done(run_dir, state, reason)
     return run_dir
 
 

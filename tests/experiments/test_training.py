@@ -514,12 +514,15 @@ def test_a_killed_environment_worker_stops_the_run_with_a_checkpoint_and_resume_
     assert episodes_in(run_dir) == list(range(1, saved + 3))
 
 
-def test_a_cpu_time_budget_stops_the_run_once_trainer_and_workers_spent_it(tmp_path):
+@pytest.mark.parametrize("n_envs", [1, 2])  # 2: worker processes, whose CPU the stop reason must count too
+def test_a_cpu_time_budget_stops_the_run_once_trainer_and_workers_spent_it(tmp_path, n_envs):
     from relmogen.experiments.budgets import process_tree_cpu_seconds
 
-    budget_s = process_tree_cpu_seconds() + 5.0  # the process's CPU so far counts too: a new process starts at 0
+    # the process's CPU so far counts too (a new process starts at 0); starting workers costs ~10 CPU s
+    budget_s = process_tree_cpu_seconds() + (5.0 if n_envs == 1 else 25.0)
     config = resolve_config("PointNav", "relmogen-r", preset="tiny", episodes=1000,
-                            overrides=[f"max_cpu_hours={budget_s / 3600}", "run.eval_every_episodes=1000"])
+                            overrides=[f"max_cpu_hours={budget_s / 3600}", "run.eval_every_episodes=1000",
+                                       f"env.n_envs={n_envs}"])
     run_dir = train(config, tmp_path, quiet=True)
     done = json.loads((run_dir / "done.json").read_text())
     assert 1 <= done["episodes"] < 1000 and done["cpu_time_s"] >= budget_s
