@@ -36,7 +36,7 @@ from relmogen.experiments.table1 import PAPER_METRIC, PAPER_VALUES
 REPO = Path(__file__).resolve().parents[2]
 CELLS = ("PointNav__relmogen-r", "PointNav__relmogen-d", "PushDoorNav__relmogen-r", "PushDoorNav__sac",
          "ButtonDoorNav__relmogen-d", "ArrangeKitchenMM__relmogen-d", "ArrangeChairMM__relmogen-d",
-         "TabletopReachM__relmogen-r")
+         "TabletopReachM__relmogen-r", "PointNav__sac")
 ALWAYS_EXCLUDED = {"preset", "max_hours"}
 BUDGET_KEYS = {"episodes", "max_cpu_hours"}
 
