@@ -29,7 +29,7 @@ import pinocchio as pin
 import pybullet as p
 
 from relmogen.robots.robot import BASE_LINK, Robot
-from relmogen.simulation.shapes import base_inertial_position, body_boxes, contacts_ignored
+from relmogen.simulation.shapes import base_inertial_position, body_boxes, changes, contacts_ignored
 
 import coal  # noqa: E402  (after pinocchio, which loads the same Coal library)
 
@@ -124,8 +124,10 @@ class CoalArmCollision:
         self._held_world = held
 
     def _world_signature(self) -> tuple:
-        """Every other body's base pose, bounding box and joint positions, and the robot's base pose."""
-        client, signature = self.client, [tuple(np.concatenate(self.robot.link_pose(BASE_LINK)).tolist())]
+        """Every other body's base pose, bounding box and joint positions, the robot's base pose, and
+        the count of recorded bodies and ignored pairs."""
+        client = self.client
+        signature = [changes(client), tuple(np.concatenate(self.robot.link_pose(BASE_LINK)).tolist())]
         for body in self._other_bodies():
             signature.append(p.getBasePositionAndOrientation(body, physicsClientId=client))
             signature.append(p.getAABB(body, physicsClientId=client))  # a removed body's id may come back as another

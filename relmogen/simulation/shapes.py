@@ -34,6 +34,7 @@ _SHAPES: dict[tuple[int, int], tuple[LocalBox, ...]] = {}
 _BODIES: dict[tuple[int, int], dict[int, tuple[LocalBox, ...]]] = {}
 _BASE_INERTIAL: dict[tuple[int, int], Vec3] = {}
 _IGNORED: dict[int, set[tuple[int, int, int, int]]] = {}  # client -> (body, link, body, link) without contacts
+_CHANGES: dict[int, int] = {}  # client -> bodies recorded and pairs ignored so far
 
 
 def box_collision_shape(client: int, half_extents: Sequence[Sequence[float]],
@@ -62,7 +63,14 @@ def record_body(client: int, body: int, link_shapes: Mapping[int, int],
     centre of mass); returns ``body``."""
     _BODIES[(client, body)] = {link: _SHAPES[(client, shape)] for link, shape in link_shapes.items() if shape >= 0}
     _BASE_INERTIAL[(client, body)] = tuple(float(v) for v in base_inertial_position)
+    _CHANGES[client] = _CHANGES.get(client, 0) + 1
     return body
+
+
+def changes(client: int) -> int:
+    """A count that grows with every ``record_body`` and ``ignore_contacts`` on ``client``: what
+    was built from them is stale when it differs."""
+    return _CHANGES.get(client, 0)
 
 
 def base_inertial_position(client: int, body: int) -> Vec3:
@@ -81,6 +89,7 @@ def forget_client(client: int) -> None:
         for key in [key for key in registry if key[0] == client]:
             del registry[key]
     _IGNORED.pop(client, None)
+    _CHANGES.pop(client, None)
 
 
 def ignore_contacts(client: int, body_a: int, link_a: int, body_b: int, link_b: int) -> None:
@@ -88,6 +97,7 @@ def ignore_contacts(client: int, body_a: int, link_a: int, body_b: int, link_b: 
     check that does not ask PyBullet for contacts must leave the pair out too."""
     p.setCollisionFilterPair(body_a, body_b, link_a, link_b, 0, physicsClientId=client)
     _IGNORED.setdefault(client, set()).update({(body_a, link_a, body_b, link_b), (body_b, link_b, body_a, link_a)})
+    _CHANGES[client] = _CHANGES.get(client, 0) + 1
 
 
 def contacts_ignored(client: int, body_a: int, link_a: int, body_b: int, link_b: int) -> bool:
