@@ -18,19 +18,6 @@ RESOLUTION = 0.05
 PUSH = np.array([0.2, 0.0, 0.0])
 
 
-@pytest.fixture
-def world():
-    w = World()
-    p.loadURDF(pybullet_data.getDataPath() + "/plane.urdf", physicsClientId=w.client)
-    yield w
-    w.close()
-
-
-@pytest.fixture
-def robot(world):
-    return Robot(world.client, load_spec("fetch"))
-
-
 def add_box(client: int, half_extents, position, mass: float = 0.0) -> int:
     shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=list(half_extents), physicsClientId=client)
     return p.createMultiBody(mass, shape, -1, list(position), physicsClientId=client)

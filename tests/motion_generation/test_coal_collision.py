@@ -1,6 +1,6 @@
 """The coal collision backend answers the arm's queries as the PyBullet check does (away from
 contact), keeps the gripper's penetration allowances, rebuilds its world when a body moved, and
-refuses a colliding body whose boxes it cannot read."""
+refuses a colliding body whose boxes it cannot read (conftest.py's world: a URDF floor plane)."""
 
 from __future__ import annotations
 
@@ -12,22 +12,7 @@ from relmogen.envs.relmogen_env import RelmogenEnv
 from relmogen.motion_generation.arm import ArmCollisionChecker, ArmConfig, ArmMotion
 from relmogen.motion_generation.coal_collision import UnknownCollisionGeometry
 from relmogen.robots.robot import Robot
-from relmogen.robots.spec import load_spec
 from relmogen.simulation.shapes import box_collision_shape, ignore_contacts, record_body
-from relmogen.simulation.world import World
-
-
-@pytest.fixture
-def world():
-    w = World()
-    add_box(w.client, [5.0, 5.0, 0.05], [0.0, 0.0, -0.05])  # the floor
-    yield w
-    w.close()
-
-
-@pytest.fixture
-def robot(world):
-    return Robot(world.client, load_spec("fetch"))
 
 
 def add_box(client: int, half_extents, position, mass: float = 0.0) -> int:
