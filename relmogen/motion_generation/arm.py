@@ -230,7 +230,8 @@ class ArmCollisionChecker:
         """Queries in this block may assume the robot's joints other than the planning joints stay
         where they are now (the copy is given them once here)."""
         if not self._held:
-            self._hits_itself()  # mirrors every movable joint onto the copy
+            if self._coal is None:
+                self._hits_itself()  # mirrors every movable joint onto the copy
             self._coal_held = False  # Coal's geometry is built at the block's first query, if any
         self._held += 1
         try:
